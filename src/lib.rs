@@ -1,0 +1,14 @@
+//! # brdfit
+//!
+//! Fit reflection models to measured reflectance and analyse the result.
+//!
+//! The data flows through the modules in order: [`data`] (samples and loaders) →
+//! [`model`] (the BRDFs of Phong 1975 and Blinn 1977, with analytic gradients) → fit, plot,
+//! render and report. [`simulate`] makes synthetic samples; [`output`] writes files atomically.
+
+#![warn(missing_docs)]
+
+pub mod data;
+pub mod model;
+pub mod output;
+pub mod simulate;

@@ -1,0 +1,294 @@
+//! `brdfit`: the command-line interface, a thin layer over the library.
+
+use anyhow::{Context, Result, anyhow, bail};
+use brdfit::data::{self, ChannelSelect, Dataset, Format, LoadOptions, NegativePolicy, Quantity};
+use brdfit::model::{Distribution, Geometry, Model, ModelKind};
+use brdfit::simulate::{Grid, simulate};
+use clap::{Args, Parser, Subcommand};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Fit reflection models (Phong, Blinn's Torrance–Sparrow) to measured reflectance.
+#[derive(Parser, Debug)]
+#[command(name = "brdfit", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Summarise a data file: format, samples, channels, quantity, angle coverage, value range.
+    #[command(after_help = "Example:\n  brdfit info data/cayman.astm")]
+    Info {
+        /// The data file (.csv, .astm, .brdf or MERL .binary).
+        file: PathBuf,
+        #[command(flatten)]
+        load: LoadArgs,
+    },
+    /// Evaluate a model's BRDF at the directions of a CSV (its four angle columns).
+    #[command(
+        after_help = "Example:\n  brdfit eval --model torrance-sparrow --set n=1.8,c3=0.35,ps=0.667,pd=0.333 dirs.csv -o out.csv"
+    )]
+    Eval {
+        #[command(flatten)]
+        model: ModelArgs,
+        /// CSV whose theta_i/phi_i/theta_o/phi_o columns (with _deg or _rad) give the directions.
+        directions: PathBuf,
+        /// Output CSV (standard output when omitted).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
+    /// Write synthetic samples of a model, with seeded multiplicative Gaussian noise.
+    #[command(
+        after_help = "Example:\n  brdfit simulate --model torrance-sparrow --set n=1.8,c3=0.35,ps=0.667,pd=0.333 \\\n    --grid hemisphere:10000 --noise 0.01 --seed 1 -o mgo.csv"
+    )]
+    Simulate {
+        #[command(flatten)]
+        model: ModelArgs,
+        /// Sampling: hemisphere:N (N seeded random directions) or plane:θ1,θ2,… (degrees).
+        #[arg(long, default_value = "hemisphere:10000")]
+        grid: String,
+        /// Relative noise σ: each value is multiplied by (1 + σ ε), ε ~ N(0, 1).
+        #[arg(long, default_value_t = 0.0)]
+        noise: f64,
+        /// Seed of the random stream (directions and noise).
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output CSV.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Convert between formats: any → brdfit CSV, CSV (or any) → MERL .binary.
+    #[command(
+        after_help = "Example:\n  brdfit convert data/cayman.astm --channel cie-y -o cayman.csv"
+    )]
+    Convert {
+        /// Input data file.
+        input: PathBuf,
+        /// Output file; `.binary` writes MERL, anything else brdfit CSV.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Output format (csv or merl), overriding the output's extension.
+        #[arg(long)]
+        to: Option<String>,
+        #[command(flatten)]
+        load: LoadArgs,
+    },
+}
+
+#[derive(Args, Debug, Clone)]
+struct LoadArgs {
+    /// Input format (csv, astm, cornell, merl) instead of detecting it from extension and content.
+    #[arg(long)]
+    format: Option<String>,
+    /// What to do with negative values: mask (treat as missing), clamp (to 0) or error.
+    #[arg(long, default_value = "mask")]
+    negative: String,
+    /// Reduce to one channel: a name (r, g, b, 550nm), an index, a wavelength (555nm,
+    /// interpolated) or cie-y (CIE 1931 luminance of spectral data).
+    #[arg(long)]
+    channel: Option<String>,
+}
+
+#[derive(Args, Debug, Clone)]
+struct ModelArgs {
+    /// Model: lambert, phong, blinn-phong or torrance-sparrow.
+    #[arg(long)]
+    model: String,
+    /// Facet distribution of torrance-sparrow: d1 (cosine power), d2 (Gaussian), d3 (Trowbridge–Reitz).
+    #[arg(long, default_value = "d3")]
+    distribution: String,
+    /// Parameter values NAME=VALUE (repeat or separate with commas), e.g. n=1.8,c3=0.35,ps=0.667,pd=0.333.
+    #[arg(long = "set", value_delimiter = ',')]
+    set: Vec<String>,
+    /// Phong only: use the fast power approximation (1 − βλ)^γ with γ = 2^K.
+    #[arg(long, value_name = "K")]
+    fast_pow: Option<u32>,
+}
+
+impl ModelArgs {
+    fn build(&self) -> Result<Model> {
+        let kind = ModelKind::parse(&self.model).ok_or_else(|| {
+            anyhow!(
+                "unknown model '{}'\n  fix: use --model lambert, phong, blinn-phong or torrance-sparrow",
+                self.model
+            )
+        })?;
+        let dist = Distribution::parse(&self.distribution).ok_or_else(|| {
+            anyhow!(
+                "unknown distribution '{}'\n  fix: use --distribution d1, d2 or d3",
+                self.distribution
+            )
+        })?;
+        let mut set = Vec::new();
+        for kv in &self.set {
+            let (k, v) = kv.split_once('=').ok_or_else(|| {
+                anyhow!("--set '{kv}' is not NAME=VALUE\n  fix: write e.g. --set c3=0.35")
+            })?;
+            let v: f64 = v.trim().parse().map_err(|_| {
+                anyhow!("--set {kv}: '{v}' is not a number\n  fix: write e.g. --set c3=0.35")
+            })?;
+            set.push((k.trim().to_string(), v));
+        }
+        let mut m = Model::from_named(kind, dist, &set).map_err(|e| anyhow!("{e}"))?;
+        m.fast_pow = self.fast_pow;
+        Ok(m)
+    }
+}
+
+impl LoadArgs {
+    fn load(&self, path: &Path) -> Result<Dataset> {
+        let format = match &self.format {
+            None => None,
+            Some(f) => Some(Format::parse(f).ok_or_else(|| {
+                anyhow!("unknown format '{f}'\n  fix: use --format csv, astm, cornell or merl")
+            })?),
+        };
+        let negative = NegativePolicy::parse(&self.negative).ok_or_else(|| {
+            anyhow!(
+                "unknown negative policy '{}'\n  fix: use --negative mask, clamp or error",
+                self.negative
+            )
+        })?;
+        let ds = data::load(path, &LoadOptions { format, negative })?;
+        match &self.channel {
+            None => Ok(ds),
+            Some(c) => ds.select(&ChannelSelect::parse(c)).map_err(|m| {
+                anyhow!(
+                    "{}: {m}\n  fix: pick a channel the file has",
+                    path.display()
+                )
+            }),
+        }
+    }
+}
+
+/// Write to stdout; a closed pipe ends the program quietly.
+fn print(s: &str) -> Result<()> {
+    let mut out = std::io::stdout().lock();
+    match out.write_all(s.as_bytes()).and_then(|_| out.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => std::process::exit(0),
+        r => r.context("writing to standard output"),
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Info { file, load } => {
+            let ds = load.load(&file)?;
+            print(&data::summary(&ds))
+        }
+        Command::Eval {
+            model,
+            directions,
+            output,
+        } => {
+            let m = model.build()?;
+            let dirs = data::load_directions(&directions)?;
+            let mut out = Dataset::new(Quantity::Brdf, vec![(String::new(), None)]);
+            for k in 0..dirs.len() {
+                let a = dirs.angles(k);
+                out.push(a, &[m.brdf(&Geometry::from_angles(a[0], a[1], a[2], a[3]))]);
+            }
+            out.meta.comments = vec![format!("brdfit eval: {m}")];
+            match output {
+                Some(p) => Ok(data::write_csv(&out, &p)?),
+                None => {
+                    let mut buf = Vec::new();
+                    data::write_csv_to(&out, &mut buf)?;
+                    print(&String::from_utf8_lossy(&buf))
+                }
+            }
+        }
+        Command::Simulate {
+            model,
+            grid,
+            noise,
+            seed,
+            output,
+        } => {
+            let m = model.build()?;
+            let g = Grid::parse(&grid).map_err(|e| anyhow!("{e}"))?;
+            if !(noise.is_finite() && noise >= 0.0) {
+                bail!(
+                    "--noise {noise} must be a finite number ≥ 0\n  fix: e.g. --noise 0.01 for 1 %"
+                );
+            }
+            let mut ds = simulate(&m, &g.directions(seed), noise, seed);
+            ds.meta.comments = vec![
+                format!(
+                    "generated by: brdfit simulate --model {} --distribution {} --set {} --grid {grid} --noise {noise} --seed {seed}",
+                    m.kind,
+                    m.dist.name(),
+                    m.param_names()
+                        .iter()
+                        .zip(m.params())
+                        .map(|(n, v)| format!("{n}={v}"))
+                        .collect::<Vec<_>>()
+                        .join(",")
+                ),
+                format!("truth: {m}"),
+                "angles in degrees; f_r in 1/sr; mirror direction is phi_o = phi_i + 180".into(),
+            ];
+            data::write_csv(&ds, &output)?;
+            Ok(())
+        }
+        Command::Convert {
+            input,
+            output,
+            to,
+            load,
+        } => {
+            let ds = load.load(&input)?;
+            let to_merl = match to.as_deref() {
+                Some("merl") => true,
+                Some("csv") => false,
+                Some(t) => bail!("unknown output format '{t}'\n  fix: use --to csv or --to merl"),
+                None => Format::from_extension(&output) == Some(Format::Merl),
+            };
+            if same_file(&input, &output) {
+                bail!(
+                    "{}: the output would overwrite the input\n  fix: choose another output path",
+                    output.display()
+                );
+            }
+            if to_merl {
+                data::merl::write_merl(&ds, &output)?;
+            } else {
+                data::write_csv(&ds, &output)?;
+            }
+            Ok(())
+        }
+    }
+}
+
+fn same_file(a: &Path, b: &Path) -> bool {
+    match (a.canonicalize(), b.canonicalize()) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => false,
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return match e.kind() {
+                clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion => {
+                    ExitCode::SUCCESS
+                }
+                _ => ExitCode::from(2),
+            };
+        }
+    };
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}
