@@ -7,6 +7,8 @@
 //! render and report. [`simulate`] makes synthetic samples; [`output`] writes files atomically.
 
 #![warn(missing_docs)]
+// Numeric code indexes parallel arrays (struct-of-arrays); index loops are the clear form.
+#![allow(clippy::needless_range_loop)]
 
 pub mod data;
 pub mod model;

@@ -1,0 +1,388 @@
+//! The command line: bad input gives a message that names the file, line and fix, and exit
+//! code 1 (never a panic, 101); usage errors exit 2; the commands work end to end.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn brdfit(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_brdfit"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run brdfit")
+}
+
+fn write(dir: &Path, name: &str, body: &[u8]) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, body).unwrap();
+    p
+}
+
+fn expect_error(args: &[&str], fragments: &[&str]) {
+    let out = brdfit(args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "{args:?}: exit code; stderr: {err}"
+    );
+    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    for f in fragments {
+        assert!(err.contains(f), "{args:?}: stderr lacks '{f}':\n{err}");
+    }
+}
+
+const H: &str = "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,brdf\n";
+
+#[test]
+fn bad_csv_inputs_name_file_line_and_fix() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cases: Vec<(&str, String, Vec<&str>)> = vec![
+        (
+            "empty.csv",
+            String::new(),
+            vec!["empty.csv", "the file is empty", "fix:"],
+        ),
+        (
+            "header.csv",
+            H.to_string(),
+            vec!["header.csv", "no samples", "fix:"],
+        ),
+        (
+            "noangle.csv",
+            "theta_i_deg,phi_i_deg,theta_o_deg,brdf\n1,0,1,0.1\n".into(),
+            vec!["noangle.csv:1", "missing angle column(s): phi_o_deg"],
+        ),
+        (
+            "unitless.csv",
+            "theta_i,phi_i_deg,theta_o_deg,phi_o_deg,brdf\n1,0,1,0,0.1\n".into(),
+            vec![
+                "unitless.csv:1",
+                "angle columns need a unit: rename theta_i to theta_i_deg or theta_i_rad",
+            ],
+        ),
+        (
+            "nan.csv",
+            format!("{H}10,0,10,180,0.1\n10,0,20,180,NaN\n"),
+            vec!["nan.csv:3", "NaN", "leave the field empty"],
+        ),
+        (
+            "inf.csv",
+            format!("{H}10,0,10,180,inf\n"),
+            vec!["inf.csv:2", "inf", "fix:"],
+        ),
+        (
+            "text.csv",
+            format!("{H}10,0,10,180,0.1\n10,0,abc,180,0.2\n"),
+            vec!["text.csv:3", "'abc' is not a number"],
+        ),
+        (
+            "theta.csv",
+            format!("{H}95,0,10,180,0.1\n"),
+            vec!["theta.csv:2", "outside [0°, 90°]", "_deg or _rad"],
+        ),
+        (
+            "theta_rad.csv",
+            "theta_i_rad,phi_i_deg,theta_o_deg,phi_o_deg,brdf\n30,0,10,180,0.1\n".into(),
+            vec!["theta_rad.csv:2", "outside [0°, 90°]"],
+        ),
+        (
+            "phi.csv",
+            format!("{H}10,0,10,400,0.1\n"),
+            vec!["phi.csv:2", "outside [−360°, 360°]"],
+        ),
+        (
+            "semi.csv",
+            "theta_i_deg;phi_i_deg;theta_o_deg;phi_o_deg;brdf\n10;0;10;180;0,1\n".into(),
+            vec!["semi.csv:1", "separated by ';'", "'.' decimals"],
+        ),
+        (
+            "fields.csv",
+            format!("{H}10,0,10,180\n"),
+            vec!["fields.csv:2", "4 fields but the header has 5"],
+        ),
+        (
+            "novalue.csv",
+            "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg\n1,0,1,0\n".into(),
+            vec!["no value column"],
+        ),
+        (
+            "unknown.csv",
+            "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,reflectance\n1,0,1,0,1\n".into(),
+            vec!["unknown column 'reflectance'", "brdf_cos or rfactor"],
+        ),
+        (
+            "mixed.csv",
+            "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,brdf_r,rfactor_g\n1,0,1,0,1,1\n".into(),
+            vec!["mix quantities"],
+        ),
+    ];
+    for (name, body, frags) in &cases {
+        let p = write(d, name, body.as_bytes());
+        expect_error(&["info", p.to_str().unwrap()], frags);
+    }
+    let p = write(
+        d,
+        "neg.csv",
+        format!("{H}10,0,10,180,-0.1\n10,0,20,180,0.1\n").as_bytes(),
+    );
+    expect_error(
+        &["info", "--negative", "error", p.to_str().unwrap()],
+        &["neg.csv:2", "negative value -0.1", "--negative mask"],
+    );
+    let ok = brdfit(&["info", p.to_str().unwrap()]);
+    assert!(ok.status.success());
+    assert!(String::from_utf8_lossy(&ok.stdout).contains("negatives:   1 (masked as missing)"));
+    let ok = brdfit(&["info", "--negative", "clamp", p.to_str().unwrap()]);
+    assert!(String::from_utf8_lossy(&ok.stdout).contains("negatives:   1 (clamped to 0)"));
+}
+
+#[test]
+fn bad_files_of_other_kinds() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // MERL: truncated, wrong dimensions, all cells negative, header only.
+    let mut good = Vec::new();
+    for x in [90i32, 90, 180] {
+        good.extend(x.to_le_bytes());
+    }
+    let hdr = good.clone();
+    good.extend(std::iter::repeat_n((-1.0f64).to_le_bytes(), 3 * 90 * 90 * 180).flatten());
+    let p = write(d, "neg.binary", &good);
+    expect_error(
+        &["info", p.to_str().unwrap()],
+        &["neg.binary", "every cell is negative"],
+    );
+    let p = write(d, "trunc.binary", &good[..good.len() / 2]);
+    expect_error(
+        &["info", p.to_str().unwrap()],
+        &["trunc.binary", "truncated"],
+    );
+    let p = write(d, "short.binary", &hdr[..8]);
+    expect_error(
+        &["info", p.to_str().unwrap()],
+        &["short.binary", "shorter than the 12-byte"],
+    );
+    let mut dims = good.clone();
+    dims[..4].copy_from_slice(&i32::MAX.to_le_bytes());
+    let p = write(d, "dims.binary", &dims);
+    expect_error(
+        &["info", p.to_str().unwrap()],
+        &["dims.binary", "not 90×90×180"],
+    );
+    // ASTM truncated (NUM_POINTS disagrees), and a Cornell record cut short.
+    let astm =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("data/cayman.astm"))
+            .unwrap();
+    let cut: String = astm.lines().take(500).collect::<Vec<_>>().join("\n");
+    let p = write(d, "cut.astm", cut.as_bytes());
+    expect_error(
+        &["info", p.to_str().unwrap()],
+        &["cut.astm:20", "NUM_POINTS says 1439", "truncated"],
+    );
+    let p = write(d, "cut.brdf", b"2\n500 600\n0.1 0 0.2 3.1 0.5\n");
+    expect_error(
+        &["info", p.to_str().unwrap()],
+        &["cut.brdf:3", "ends after 1 of 2 values"],
+    );
+    // gzip, unknown format, a directory, a missing path.
+    let p = write(d, "x.csv.gz", &[0x1f, 0x8b, 8, 0, 0, 0]);
+    expect_error(&["info", p.to_str().unwrap()], &["gzip", "gunzip"]);
+    let p = write(d, "x.dat", b"hello world\n");
+    expect_error(
+        &["info", p.to_str().unwrap()],
+        &["x.dat", "unknown file format", "--format"],
+    );
+    expect_error(&["info", d.to_str().unwrap()], &["is a directory"]);
+    expect_error(
+        &["info", "/nonexistent/file.csv"],
+        &["/nonexistent/file.csv", "does not exist"],
+    );
+}
+
+#[test]
+fn usage_errors_exit_2() {
+    assert_eq!(brdfit(&["info"]).status.code(), Some(2));
+    assert_eq!(brdfit(&["frobnicate"]).status.code(), Some(2));
+    assert_eq!(brdfit(&["--version"]).status.code(), Some(0));
+    expect_error(
+        &[
+            "simulate",
+            "--model",
+            "phong",
+            "--set",
+            "c1=10",
+            "-o",
+            "/tmp/x.csv",
+        ],
+        &["needs parameter ps", "--set ps=VALUE"],
+    );
+    expect_error(
+        &[
+            "simulate",
+            "--model",
+            "torrance-sparrow",
+            "--set",
+            "n=1.5,c3=1.5,ps=1,pd=1",
+            "-o",
+            "/tmp/x.csv",
+        ],
+        &["c3 = 1.5 is out of bounds"],
+    );
+}
+
+#[test]
+fn eval_simulate_convert_end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let dirs = write(
+        d,
+        "dirs.csv",
+        b"theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg\n0,0,0,0\n60,0,60,180\n",
+    );
+    let out = d.join("eval.csv");
+    let o = brdfit(&[
+        "eval",
+        "--model",
+        "torrance-sparrow",
+        "--set",
+        "n=1.8,c3=0.35,ps=0.667,pd=0.333",
+        dirs.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&out).unwrap();
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    // Normal incidence and view: (pd + ps F0)/π with F0 = (0.8/2.8)², by hand.
+    let want = (0.333 + 0.667 * (0.8f64 / 2.8).powi(2)) / std::f64::consts::PI;
+    assert!((rows[0][4] - want).abs() < 1e-12);
+    // Mirror direction at 60°: N·H = 1 so D = 1; E·H = cos 60° = 0.5; G = 1 (2·1·0.5/0.5 = 2 > 1);
+    // F(1.8, 0.5) by hand from the compact formula: g = √(1.8² − 0.75) = 1.57797…
+    let g = (1.8f64 * 1.8 - 0.75).sqrt();
+    let f = 0.5
+        * ((g - 0.5) / (g + 0.5)).powi(2)
+        * (1.0 + ((0.5 * (g + 0.5) - 1.0) / (0.5 * (g - 0.5) + 1.0)).powi(2));
+    let want = 0.333 / std::f64::consts::PI + 0.667 * f / (std::f64::consts::PI * 0.25);
+    assert!(
+        (rows[1][4] - want).abs() < 1e-12,
+        "{} vs {want}",
+        rows[1][4]
+    );
+
+    // simulate is deterministic for a seed and differs between seeds.
+    let s = |seed: &str, name: &str| {
+        let p = d.join(name);
+        let o = brdfit(&[
+            "simulate",
+            "--model",
+            "blinn-phong",
+            "--set",
+            "c1=20,ps=0.5,pd=0.3",
+            "--grid",
+            "hemisphere:500",
+            "--noise",
+            "0.05",
+            "--seed",
+            seed,
+            "-o",
+            p.to_str().unwrap(),
+        ]);
+        assert!(o.status.success());
+        std::fs::read(p).unwrap()
+    };
+    assert_eq!(s("3", "a.csv"), s("3", "b.csv"));
+    assert_ne!(s("3", "a.csv"), s("4", "c.csv"));
+    let o = brdfit(&[
+        "simulate",
+        "--model",
+        "lambert",
+        "--set",
+        "pd=0.5",
+        "--grid",
+        "plane:30,70",
+        "-o",
+        d.join("p.csv").to_str().unwrap(),
+    ]);
+    assert!(o.status.success());
+    let info =
+        String::from_utf8_lossy(&brdfit(&["info", d.join("p.csv").to_str().unwrap()]).stdout)
+            .to_string();
+    assert!(
+        info.contains("samples:     358") && info.contains("θi values:   30, 70°"),
+        "{info}"
+    );
+
+    // convert: ASTM -> CSV (CIE Y) -> MERL -> info
+    let csv = d.join("cay.csv");
+    assert!(
+        brdfit(&[
+            "convert",
+            "data/cayman.astm",
+            "--channel",
+            "cie-y",
+            "-o",
+            csv.to_str().unwrap()
+        ])
+        .status
+        .success()
+    );
+    let merl = d.join("cay.binary");
+    let o = brdfit(&[
+        "convert",
+        csv.to_str().unwrap(),
+        "-o",
+        merl.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let info =
+        String::from_utf8_lossy(&brdfit(&["info", merl.to_str().unwrap()]).stdout).to_string();
+    assert!(
+        info.contains("format:      merl") && info.contains("channels:    3 (r, g, b)"),
+        "{info}"
+    );
+    expect_error(
+        &[
+            "convert",
+            csv.to_str().unwrap(),
+            "-o",
+            csv.to_str().unwrap(),
+        ],
+        &["overwrite the input"],
+    );
+    expect_error(
+        &[
+            "convert",
+            "data/cayman.astm",
+            "-o",
+            d.join("x.binary").to_str().unwrap(),
+        ],
+        &["MERL holds r, g, b", "--channel"],
+    );
+}
+
+#[test]
+fn closed_pipe_is_not_an_error() {
+    use std::process::Stdio;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_brdfit"))
+        .args(["info", "data/cayman.astm"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    assert!(
+        out.status.code() == Some(0),
+        "{:?} {}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
