@@ -11,6 +11,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod data;
+pub mod fit;
 pub mod model;
 pub mod output;
 pub mod simulate;

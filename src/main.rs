@@ -60,6 +60,16 @@ enum Command {
         #[arg(short, long)]
         output: PathBuf,
     },
+    /// Fit a model (or all of them, ranked by BIC) to a data file by nonlinear least squares.
+    #[command(
+        after_help = "Examples:\n  brdfit fit data/blinn-mgo.csv\n  brdfit fit data/merl-aluminium.csv --model all --json fits.json\n  brdfit fit data/cayman.astm --channel cie-y --model phong --max-theta 80"
+    )]
+    Fit {
+        #[command(flatten)]
+        fit: FitArgs,
+        #[command(flatten)]
+        load: LoadArgs,
+    },
     /// Convert between formats: any → brdfit CSV, CSV (or any) → MERL .binary.
     #[command(
         after_help = "Example:\n  brdfit convert data/cayman.astm --channel cie-y -o cayman.csv"
@@ -76,6 +86,48 @@ enum Command {
         #[command(flatten)]
         load: LoadArgs,
     },
+}
+
+#[derive(Args, Debug, Clone)]
+struct FitArgs {
+    /// The data file.
+    file: PathBuf,
+    /// Model: lambert, phong, blinn-phong, torrance-sparrow, or all (ranked by BIC).
+    #[arg(long, default_value = "torrance-sparrow")]
+    model: String,
+    /// Facet distribution of torrance-sparrow: d1, d2 or d3.
+    #[arg(long, default_value = "d3")]
+    distribution: String,
+    /// Local method: lm (Levenberg–Marquardt), gn (Gauss–Newton with line search), nm (Nelder–Mead).
+    #[arg(long, default_value = "lm")]
+    method: String,
+    /// Loss: log (ln(1 + cosθi f) differences) or linear (f differences).
+    #[arg(long, default_value = "log")]
+    loss: String,
+    /// Robust loss on top of it: huber or cauchy.
+    #[arg(long)]
+    robust: Option<String>,
+    /// Drop samples with θi or θo beyond this angle (degrees).
+    #[arg(long, value_name = "DEG")]
+    max_theta: Option<f64>,
+    /// Hold parameters fixed, NAME=VALUE (repeat or separate with commas).
+    #[arg(long, value_delimiter = ',')]
+    fix: Vec<String>,
+    /// Start point NAME=VALUE (one more candidate after the global initialisation).
+    #[arg(long, value_delimiter = ',')]
+    start: Vec<String>,
+    /// Fit these parameters jointly across channels (the others per channel), e.g. n,c3.
+    #[arg(long, value_delimiter = ',')]
+    shared: Vec<String>,
+    /// Skip the global initialisation (local method from --start or the default start only).
+    #[arg(long)]
+    local_only: bool,
+    /// Phong only: fast power approximation with γ = 2^K.
+    #[arg(long, value_name = "K")]
+    fast_pow: Option<u32>,
+    /// Write the fit(s) as JSON to this file.
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -122,20 +174,27 @@ impl ModelArgs {
                 self.distribution
             )
         })?;
-        let mut set = Vec::new();
-        for kv in &self.set {
-            let (k, v) = kv.split_once('=').ok_or_else(|| {
-                anyhow!("--set '{kv}' is not NAME=VALUE\n  fix: write e.g. --set c3=0.35")
-            })?;
-            let v: f64 = v.trim().parse().map_err(|_| {
-                anyhow!("--set {kv}: '{v}' is not a number\n  fix: write e.g. --set c3=0.35")
-            })?;
-            set.push((k.trim().to_string(), v));
-        }
+        let set = parse_assignments("--set", &self.set)?;
         let mut m = Model::from_named(kind, dist, &set).map_err(|e| anyhow!("{e}"))?;
         m.fast_pow = self.fast_pow;
         Ok(m)
     }
+}
+
+/// Parse `NAME=VALUE` items of a flag.
+fn parse_assignments(flag: &str, items: &[String]) -> Result<Vec<(String, f64)>> {
+    items
+        .iter()
+        .map(|kv| {
+            let (k, v) = kv.split_once('=').ok_or_else(|| {
+                anyhow!("{flag} '{kv}' is not NAME=VALUE\n  fix: write e.g. {flag} c3=0.35")
+            })?;
+            let v: f64 = v.trim().parse().map_err(|_| {
+                anyhow!("{flag} {kv}: '{v}' is not a number\n  fix: write e.g. {flag} c3=0.35")
+            })?;
+            Ok((k.trim().to_string(), v))
+        })
+        .collect()
 }
 
 impl LoadArgs {
@@ -235,6 +294,7 @@ fn run(cli: Cli) -> Result<()> {
             data::write_csv(&ds, &output)?;
             Ok(())
         }
+        Command::Fit { fit, load } => run_fit(&fit, &load),
         Command::Convert {
             input,
             output,
@@ -262,6 +322,100 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
     }
+}
+
+fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
+    use brdfit::fit::{self, FitOptions, RobustKind, lsq::Method, problem::Loss};
+    let ds = load.load(&a.file)?;
+    let dist = Distribution::parse(&a.distribution).ok_or_else(|| {
+        anyhow!(
+            "unknown distribution '{}'\n  fix: use --distribution d1, d2 or d3",
+            a.distribution
+        )
+    })?;
+    let kinds: Vec<(ModelKind, Distribution)> = if a.model == "all" {
+        fit::all_models()
+    } else {
+        vec![(
+            ModelKind::parse(&a.model).ok_or_else(|| {
+                anyhow!(
+                    "unknown model '{}'\n  fix: use --model lambert, phong, blinn-phong, torrance-sparrow or all",
+                    a.model
+                )
+            })?,
+            dist,
+        )]
+    };
+    let method = Method::parse(&a.method).ok_or_else(|| {
+        anyhow!(
+            "unknown method '{}'\n  fix: use --method lm, gn or nm",
+            a.method
+        )
+    })?;
+    let loss = Loss::parse(&a.loss)
+        .ok_or_else(|| anyhow!("unknown loss '{}'\n  fix: use --loss log or linear", a.loss))?;
+    let robust = match a.robust.as_deref() {
+        None => None,
+        Some("huber") => Some(RobustKind::Huber),
+        Some("cauchy") => Some(RobustKind::Cauchy),
+        Some(r) => bail!("unknown robust loss '{r}'\n  fix: use --robust huber or cauchy"),
+    };
+    let fix = parse_assignments("--fix", &a.fix)?;
+    let start = parse_assignments("--start", &a.start)?;
+    let mut all = Vec::new();
+    for (kind, dist) in &kinds {
+        let mut o = FitOptions::new(*kind);
+        o.dist = *dist;
+        o.method = method;
+        o.loss = loss;
+        o.robust = robust;
+        o.max_theta_deg = a.max_theta;
+        // With --model all, parameters a model lacks are skipped for that model.
+        let names = kind.param_names(*dist);
+        let keep = |v: &Vec<(String, f64)>| -> Vec<(String, f64)> {
+            v.iter()
+                .filter(|(k, _)| kinds.len() == 1 || names.contains(&k.as_str()))
+                .cloned()
+                .collect()
+        };
+        o.fix = keep(&fix);
+        o.start = keep(&start);
+        o.shared = a
+            .shared
+            .iter()
+            .filter(|s| kinds.len() == 1 || names.contains(&s.as_str()))
+            .cloned()
+            .collect();
+        o.local_only = a.local_only;
+        o.fast_pow = a.fast_pow;
+        let fits = fit::fit(&ds, &o).map_err(|e| anyhow!("{}: {e}", a.file.display()))?;
+        all.push(fits);
+    }
+    let mut text = String::new();
+    let nch = all[0].len();
+    for c in 0..nch {
+        for fits in &all {
+            text.push_str(&fit::format_fit(&fits[c]));
+        }
+        if all.len() > 1 {
+            let row: Vec<fit::FitResult> = all.iter().map(|f| f[c].clone()).collect();
+            text.push_str(&format!("model comparison, channel {}:\n", row[0].channel));
+            text.push_str(&fit::format_ranking(&row));
+        }
+    }
+    print(&text)?;
+    if let Some(path) = &a.json {
+        let flat: Vec<&fit::FitResult> = all.iter().flatten().collect();
+        let v = if flat.len() == 1 {
+            flat[0].to_json()
+        } else {
+            serde_json::json!({ "fits": flat.iter().map(|f| f.to_json()).collect::<Vec<_>>() })
+        };
+        let s = serde_json::to_string_pretty(&v)? + "\n";
+        brdfit::output::write_bytes_atomic(path, s.as_bytes())
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
 }
 
 fn same_file(a: &Path, b: &Path) -> bool {

@@ -1,0 +1,672 @@
+//! A generic nonlinear least-squares core. A [`Problem`] supplies residuals and their analytic
+//! gradient row by row; the solvers never know what model they fit.
+//!
+//! The normal equations JᵀJ and Jᵀr are accumulated in one streaming pass over the residuals,
+//! in parallel over fixed chunks whose partial sums are added in chunk order, so the result is
+//! the same bytes whatever the thread count and no m×p Jacobian is ever stored.
+//!
+//! Methods:
+//! - [`Method::Lm`]: Levenberg–Marquardt with Marquardt's diagonal scaling and Nielsen's damping
+//!   update (K. Madsen, H. B. Nielsen, O. Tingleff, "Methods for non-linear least squares
+//!   problems", 2004, Algorithm 3.16), with bounds on the parameters by projection.
+//! - [`Method::GaussNewton`]: Gauss–Newton with a bounded, NaN-safe Armijo backtracking line
+//!   search (Nocedal & Wright, "Numerical Optimization", 2006, Algorithm 3.1).
+//! - [`Method::NelderMead`]: the derivative-free simplex method (Nelder & Mead 1965) with the
+//!   standard coefficients (1, 2, ½, ½), on the cost only.
+//!
+//! Every loop is bounded in iterations and evaluations, and a trial point whose cost is not
+//! finite is rejected, never accepted.
+
+use rayon::prelude::*;
+
+/// A least-squares problem: minimise ½ Σ ρ(r_i(x)) over a box.
+pub trait Problem: Sync {
+    /// Per-evaluation data derived from the parameters (e.g. the model and chain factors).
+    type Prepared: Sync;
+    /// Number of parameters.
+    fn dim(&self) -> usize;
+    /// Number of residuals.
+    fn len(&self) -> usize;
+    /// Derive the per-evaluation data from `x`, or `None` if `x` is not admissible.
+    fn prepare(&self, x: &[f64]) -> Option<Self::Prepared>;
+    /// Residual `i` and its gradient with respect to the parameters (written to `row`).
+    fn residual_grad(&self, prep: &Self::Prepared, i: usize, row: &mut [f64]) -> f64;
+    /// Residual `i` alone (defaults to [`Problem::residual_grad`]).
+    fn residual(&self, prep: &Self::Prepared, i: usize) -> f64 {
+        let mut row = vec![0.0; self.dim()];
+        self.residual_grad(prep, i, &mut row)
+    }
+    /// Lower and upper bound of each parameter (defaults to unbounded).
+    fn bounds(&self) -> Vec<(f64, f64)> {
+        vec![(f64::NEG_INFINITY, f64::INFINITY); self.dim()]
+    }
+}
+
+/// Robust loss ρ applied to each residual (the cost is Σ ρ(r)/…, see [`Robust::rho`]).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum Robust {
+    /// ρ(r) = ½ r² (ordinary least squares).
+    #[default]
+    None,
+    /// Huber with threshold δ: quadratic within δ, linear beyond.
+    Huber(f64),
+    /// Cauchy (Lorentzian) with scale δ: ½ δ² ln(1 + (r/δ)²).
+    Cauchy(f64),
+}
+
+impl Robust {
+    /// ρ(r), with ρ(r) = ½ r² for small r.
+    #[inline]
+    pub fn rho(self, r: f64) -> f64 {
+        match self {
+            Robust::None => 0.5 * r * r,
+            Robust::Huber(d) => {
+                if r.abs() <= d {
+                    0.5 * r * r
+                } else {
+                    d * (r.abs() - 0.5 * d)
+                }
+            }
+            Robust::Cauchy(d) => 0.5 * d * d * (r / d).powi(2).ln_1p(),
+        }
+    }
+
+    /// IRLS weight ρ'(r)/r.
+    #[inline]
+    pub fn weight(self, r: f64) -> f64 {
+        match self {
+            Robust::None => 1.0,
+            Robust::Huber(d) => {
+                if r.abs() <= d {
+                    1.0
+                } else {
+                    d / r.abs()
+                }
+            }
+            Robust::Cauchy(d) => 1.0 / (1.0 + (r / d).powi(2)),
+        }
+    }
+}
+
+/// Solver choice.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Method {
+    /// Levenberg–Marquardt (default).
+    #[default]
+    Lm,
+    /// Gauss–Newton with line search.
+    GaussNewton,
+    /// Nelder–Mead simplex.
+    NelderMead,
+}
+
+impl Method {
+    /// Command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Lm => "lm",
+            Method::GaussNewton => "gn",
+            Method::NelderMead => "nm",
+        }
+    }
+
+    /// Parse `lm`, `gn` or `nm` (also long names).
+    pub fn parse(s: &str) -> Option<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "lm" | "levenberg-marquardt" => Some(Method::Lm),
+            "gn" | "gauss-newton" => Some(Method::GaussNewton),
+            "nm" | "nelder-mead" => Some(Method::NelderMead),
+            _ => None,
+        }
+    }
+}
+
+/// Stopping rules; every one is a bound, none can be switched off.
+#[derive(Clone, Copy, Debug)]
+pub struct Limits {
+    /// Maximum iterations.
+    pub max_iter: usize,
+    /// Maximum cost evaluations (a Jacobian pass counts as one).
+    pub max_eval: usize,
+    /// Stop when a step lowers the cost by less than `ftol` relative.
+    pub ftol: f64,
+    /// Stop when the scaled step is below `xtol` relative to the parameters.
+    pub xtol: f64,
+    /// Stop when the largest scaled gradient component is below `gtol`.
+    pub gtol: f64,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_iter: 500,
+            max_eval: 2000,
+            ftol: 1e-15,
+            xtol: 1e-15,
+            gtol: 1e-14,
+        }
+    }
+}
+
+/// What a solver returns.
+#[derive(Clone, Debug)]
+pub struct Solution {
+    /// Parameters at the end.
+    pub x: Vec<f64>,
+    /// Cost Σ ρ(r) at `x` (½ Σ r² without a robust loss).
+    pub cost: f64,
+    /// Iterations taken.
+    pub iterations: usize,
+    /// Cost or Jacobian evaluations.
+    pub evaluations: usize,
+    /// Why it stopped.
+    pub termination: String,
+    /// True when a convergence test (not a limit or failure) stopped it.
+    pub converged: bool,
+}
+
+/// Normal equations at a point: cost, JᵀWJ (row-major p×p) and JᵀWr.
+#[derive(Clone, Debug)]
+pub struct Normal {
+    /// Σ ρ(r).
+    pub cost: f64,
+    /// JᵀWJ, row-major.
+    pub jtj: Vec<f64>,
+    /// JᵀWr.
+    pub jtr: Vec<f64>,
+}
+
+const CHUNK: usize = 4096;
+
+/// Cost Σ ρ(r_i) at `x`; `None` where `x` is inadmissible or the cost is not finite.
+pub fn cost<P: Problem>(p: &P, x: &[f64], robust: Robust) -> Option<f64> {
+    let prep = p.prepare(x)?;
+    let m = p.len();
+    let parts: Vec<f64> = (0..m.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut s = 0.0;
+            for i in c * CHUNK..((c + 1) * CHUNK).min(m) {
+                s += robust.rho(p.residual(&prep, i));
+            }
+            s
+        })
+        .collect();
+    let s: f64 = parts.iter().sum();
+    s.is_finite().then_some(s)
+}
+
+/// Normal equations at `x` in one streaming pass; `None` if anything is not finite.
+pub fn normal_equations<P: Problem>(p: &P, x: &[f64], robust: Robust) -> Option<Normal> {
+    let prep = p.prepare(x)?;
+    let n = p.dim();
+    let m = p.len();
+    let parts: Vec<Normal> = (0..m.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut acc = Normal {
+                cost: 0.0,
+                jtj: vec![0.0; n * n],
+                jtr: vec![0.0; n],
+            };
+            let mut row = vec![0.0; n];
+            for i in c * CHUNK..((c + 1) * CHUNK).min(m) {
+                let r = p.residual_grad(&prep, i, &mut row);
+                acc.cost += robust.rho(r);
+                let w = robust.weight(r);
+                for a in 0..n {
+                    let wa = w * row[a];
+                    acc.jtr[a] += wa * r;
+                    for b in a..n {
+                        acc.jtj[a * n + b] += wa * row[b];
+                    }
+                }
+            }
+            acc
+        })
+        .collect();
+    let mut out = Normal {
+        cost: 0.0,
+        jtj: vec![0.0; n * n],
+        jtr: vec![0.0; n],
+    };
+    for part in &parts {
+        out.cost += part.cost;
+        for k in 0..n * n {
+            out.jtj[k] += part.jtj[k];
+        }
+        for k in 0..n {
+            out.jtr[k] += part.jtr[k];
+        }
+    }
+    for a in 0..n {
+        for b in 0..a {
+            out.jtj[a * n + b] = out.jtj[b * n + a];
+        }
+    }
+    let finite = out.cost.is_finite()
+        && out.jtj.iter().all(|v| v.is_finite())
+        && out.jtr.iter().all(|v| v.is_finite());
+    finite.then_some(out)
+}
+
+/// Solve (A + μ diag(D)) h = −g by Cholesky with Jacobi scaling; `None` if not positive definite.
+fn damped_solve(a: &[f64], g: &[f64], d: &[f64], mu: f64) -> Option<Vec<f64>> {
+    let n = g.len();
+    // Scale by s_i = 1/√d_i so the scaled matrix has a unit-ish diagonal: better conditioned.
+    let s: Vec<f64> = d.iter().map(|v| 1.0 / v.sqrt()).collect();
+    let mut m = nalgebra::DMatrix::<f64>::zeros(n, n);
+    for i in 0..n {
+        for j in 0..n {
+            m[(i, j)] = a[i * n + j] * s[i] * s[j];
+        }
+        m[(i, i)] += mu;
+    }
+    let rhs = nalgebra::DVector::from_iterator(n, (0..n).map(|i| -g[i] * s[i]));
+    let chol = m.cholesky()?;
+    let y = chol.solve(&rhs);
+    let h: Vec<f64> = (0..n).map(|i| y[i] * s[i]).collect();
+    h.iter().all(|v| v.is_finite()).then_some(h)
+}
+
+fn project(x: &mut [f64], bounds: &[(f64, f64)]) {
+    for (v, (lo, hi)) in x.iter_mut().zip(bounds) {
+        *v = v.clamp(*lo, *hi);
+    }
+}
+
+fn scale_diag(n: &Normal, dim: usize) -> Vec<f64> {
+    let maxd = (0..dim)
+        .map(|i| n.jtj[i * dim + i])
+        .fold(0.0f64, f64::max)
+        .max(1e-300);
+    (0..dim)
+        .map(|i| n.jtj[i * dim + i].max(1e-12 * maxd))
+        .collect()
+}
+
+/// Minimise with the chosen method from `x0` (projected onto the bounds first).
+pub fn solve<P: Problem>(
+    p: &P,
+    x0: &[f64],
+    method: Method,
+    robust: Robust,
+    limits: &Limits,
+) -> Solution {
+    match method {
+        Method::Lm => levenberg_marquardt(p, x0, robust, limits),
+        Method::GaussNewton => gauss_newton(p, x0, robust, limits),
+        Method::NelderMead => nelder_mead(p, x0, robust, limits),
+    }
+}
+
+fn failed(x: Vec<f64>, why: &str, evaluations: usize) -> Solution {
+    Solution {
+        x,
+        cost: f64::INFINITY,
+        iterations: 0,
+        evaluations,
+        termination: why.to_string(),
+        converged: false,
+    }
+}
+
+/// Levenberg–Marquardt (see the module documentation).
+pub fn levenberg_marquardt<P: Problem>(
+    p: &P,
+    x0: &[f64],
+    robust: Robust,
+    limits: &Limits,
+) -> Solution {
+    let dim = p.dim();
+    let bounds = p.bounds();
+    let mut x = x0.to_vec();
+    project(&mut x, &bounds);
+    let mut evals = 1;
+    let Some(mut ne) = normal_equations(p, &x, robust) else {
+        return failed(x, "the start point gives a non-finite cost", evals);
+    };
+    let mut d = scale_diag(&ne, dim);
+    let mut mu = 1e-3;
+    let mut nu = 2.0;
+    let mut iter = 0;
+    let mut termination = "iteration limit reached".to_string();
+    let mut converged = false;
+    while iter < limits.max_iter {
+        if evals >= limits.max_eval {
+            termination = "evaluation limit reached".into();
+            break;
+        }
+        // Scaled gradient test.
+        let gmax = (0..dim)
+            .map(|i| ne.jtr[i].abs() / d[i].sqrt())
+            .fold(0.0f64, f64::max);
+        if gmax <= limits.gtol * (2.0 * ne.cost).sqrt().max(1e-300) || ne.cost == 0.0 {
+            termination = "gradient below tolerance".into();
+            converged = true;
+            break;
+        }
+        iter += 1;
+        // Marquardt's scaling: keep the largest diagonal seen (Moré 1978).
+        for i in 0..dim {
+            d[i] = d[i].max(ne.jtj[i * dim + i]);
+        }
+        let Some(h) = damped_solve(&ne.jtj, &ne.jtr, &d, mu) else {
+            mu *= nu;
+            nu *= 2.0;
+            if mu > 1e20 {
+                termination = "damping limit reached (singular system)".into();
+                break;
+            }
+            continue;
+        };
+        let mut xn: Vec<f64> = x.iter().zip(&h).map(|(a, b)| a + b).collect();
+        project(&mut xn, &bounds);
+        let step: Vec<f64> = xn.iter().zip(&x).map(|(a, b)| a - b).collect();
+        let snorm = step
+            .iter()
+            .zip(&d)
+            .map(|(s, di)| (s * di.sqrt()).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let xnorm = x
+            .iter()
+            .zip(&d)
+            .map(|(s, di)| (s * di.sqrt()).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        if snorm <= limits.xtol * (xnorm + limits.xtol) {
+            termination = "step below tolerance".into();
+            converged = true;
+            break;
+        }
+        evals += 1;
+        let cn = cost(p, &xn, robust).unwrap_or(f64::INFINITY);
+        // Predicted reduction of the linear model for the projected step.
+        let mut pred = 0.0;
+        for a in 0..dim {
+            let mut jh = 0.0;
+            for b in 0..dim {
+                jh += ne.jtj[a * dim + b] * step[b];
+            }
+            pred -= step[a] * (ne.jtr[a] + 0.5 * jh);
+        }
+        let actual = ne.cost - cn;
+        let rho = if pred > 0.0 { actual / pred } else { -1.0 };
+        if cn.is_finite() && actual > 0.0 && rho > 0.0 {
+            let small = actual <= limits.ftol * ne.cost;
+            x = xn;
+            evals += 1;
+            match normal_equations(p, &x, robust) {
+                Some(n2) => ne = n2,
+                None => {
+                    termination = "non-finite Jacobian at an accepted point".into();
+                    break;
+                }
+            }
+            mu *= (1.0f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
+            nu = 2.0;
+            if small {
+                termination = "cost reduction below tolerance".into();
+                converged = true;
+                break;
+            }
+        } else {
+            mu *= nu;
+            nu *= 2.0;
+            if mu > 1e20 {
+                termination = "no further reduction possible".into();
+                converged = true;
+                break;
+            }
+        }
+    }
+    Solution {
+        cost: ne.cost,
+        x,
+        iterations: iter,
+        evaluations: evals,
+        termination,
+        converged,
+    }
+}
+
+/// Gauss–Newton with a bounded Armijo line search (see the module documentation).
+pub fn gauss_newton<P: Problem>(p: &P, x0: &[f64], robust: Robust, limits: &Limits) -> Solution {
+    let dim = p.dim();
+    let bounds = p.bounds();
+    let mut x = x0.to_vec();
+    project(&mut x, &bounds);
+    let mut evals = 1;
+    let Some(mut ne) = normal_equations(p, &x, robust) else {
+        return failed(x, "the start point gives a non-finite cost", evals);
+    };
+    let mut iter = 0;
+    let mut termination = "iteration limit reached".to_string();
+    let mut converged = false;
+    while iter < limits.max_iter && evals < limits.max_eval {
+        let d = scale_diag(&ne, dim);
+        let gmax = (0..dim)
+            .map(|i| ne.jtr[i].abs() / d[i].sqrt())
+            .fold(0.0f64, f64::max);
+        if gmax <= limits.gtol * (2.0 * ne.cost).sqrt().max(1e-300) || ne.cost == 0.0 {
+            termination = "gradient below tolerance".into();
+            converged = true;
+            break;
+        }
+        iter += 1;
+        // A pure Gauss–Newton step; a tiny ridge only where JᵀJ is numerically singular.
+        let Some(h) = damped_solve(&ne.jtj, &ne.jtr, &d, 1e-12)
+            .or_else(|| damped_solve(&ne.jtj, &ne.jtr, &d, 1e-6))
+        else {
+            termination = "singular normal equations".into();
+            break;
+        };
+        let slope: f64 = h.iter().zip(&ne.jtr).map(|(a, b)| a * b).sum();
+        if slope >= 0.0 {
+            termination = "not a descent direction".into();
+            break;
+        }
+        let mut alpha = 1.0;
+        let mut accepted = None;
+        for _ in 0..40 {
+            if evals >= limits.max_eval {
+                break;
+            }
+            let mut xn: Vec<f64> = x.iter().zip(&h).map(|(a, b)| a + alpha * b).collect();
+            project(&mut xn, &bounds);
+            evals += 1;
+            if let Some(cn) = cost(p, &xn, robust)
+                && cn <= ne.cost + 1e-4 * alpha * slope
+            {
+                accepted = Some((xn, cn));
+                break;
+            }
+            alpha *= 0.5;
+        }
+        let Some((xn, cn)) = accepted else {
+            termination = "line search found no decrease".into();
+            converged = true;
+            break;
+        };
+        let small = ne.cost - cn <= limits.ftol * ne.cost;
+        x = xn;
+        evals += 1;
+        match normal_equations(p, &x, robust) {
+            Some(n2) => ne = n2,
+            None => {
+                termination = "non-finite Jacobian at an accepted point".into();
+                break;
+            }
+        }
+        if small {
+            termination = "cost reduction below tolerance".into();
+            converged = true;
+            break;
+        }
+    }
+    if evals >= limits.max_eval && !converged {
+        termination = "evaluation limit reached".into();
+    }
+    Solution {
+        cost: ne.cost,
+        x,
+        iterations: iter,
+        evaluations: evals,
+        termination,
+        converged,
+    }
+}
+
+/// Nelder–Mead on the cost (see the module documentation).
+pub fn nelder_mead<P: Problem>(p: &P, x0: &[f64], robust: Robust, limits: &Limits) -> Solution {
+    let n = p.dim();
+    let bounds = p.bounds();
+    let mut evals = 0;
+    let f = |x: &mut Vec<f64>, evals: &mut usize| {
+        project(x, &bounds);
+        *evals += 1;
+        cost(p, x, robust).unwrap_or(f64::INFINITY)
+    };
+    let mut start = x0.to_vec();
+    let f0 = f(&mut start, &mut evals);
+    let mut simplex: Vec<(Vec<f64>, f64)> = vec![(start.clone(), f0)];
+    for i in 0..n {
+        let mut v = start.clone();
+        v[i] += if v[i].abs() > 1e-3 { 0.1 * v[i] } else { 0.1 };
+        let fv = f(&mut v, &mut evals);
+        simplex.push((v, fv));
+    }
+    let mut iter = 0;
+    let mut termination = "iteration limit reached".to_string();
+    let mut converged = false;
+    let max_iter = limits.max_iter * 20;
+    while iter < max_iter {
+        if evals >= limits.max_eval * 5 {
+            termination = "evaluation limit reached".into();
+            break;
+        }
+        simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let (best, worst) = (simplex[0].1, simplex[n].1);
+        let spread = simplex
+            .iter()
+            .flat_map(|(v, _)| v.iter().zip(&simplex[0].0).map(|(a, b)| (a - b).abs()))
+            .fold(0.0f64, f64::max);
+        if best.is_finite()
+            && (worst - best).abs() <= 1e-15 * best.abs().max(1e-300)
+            && spread < 1e-10
+        {
+            termination = "simplex collapsed".into();
+            converged = true;
+            break;
+        }
+        iter += 1;
+        let centroid: Vec<f64> = (0..n)
+            .map(|k| simplex[..n].iter().map(|(v, _)| v[k]).sum::<f64>() / n as f64)
+            .collect();
+        let towards = |t: f64| -> Vec<f64> {
+            centroid
+                .iter()
+                .zip(&simplex[n].0)
+                .map(|(c, w)| c + t * (w - c))
+                .collect()
+        };
+        let mut xr = towards(-1.0);
+        let fr = f(&mut xr, &mut evals);
+        if fr < simplex[0].1 {
+            let mut xe = towards(-2.0);
+            let fe = f(&mut xe, &mut evals);
+            simplex[n] = if fe < fr { (xe, fe) } else { (xr, fr) };
+        } else if fr < simplex[n - 1].1 {
+            simplex[n] = (xr, fr);
+        } else {
+            let (mut xc, fc) = if fr < simplex[n].1 {
+                let mut xc = towards(-0.5);
+                let fc = f(&mut xc, &mut evals);
+                (xc, fc)
+            } else {
+                let mut xc = towards(0.5);
+                let fc = f(&mut xc, &mut evals);
+                (xc, fc)
+            };
+            if fc < simplex[n].1.min(fr) {
+                simplex[n] = (std::mem::take(&mut xc), fc);
+            } else {
+                let b = simplex[0].0.clone();
+                for item in simplex.iter_mut().skip(1) {
+                    let mut v: Vec<f64> = b
+                        .iter()
+                        .zip(&item.0)
+                        .map(|(a, c)| a + 0.5 * (c - a))
+                        .collect();
+                    let fv = f(&mut v, &mut evals);
+                    *item = (v, fv);
+                }
+            }
+        }
+    }
+    simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let (x, c) = simplex.swap_remove(0);
+    Solution {
+        x,
+        cost: c,
+        iterations: iter,
+        evaluations: evals,
+        termination,
+        converged,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rosenbrock as least squares: r1 = 10(x2 − x1²), r2 = 1 − x1.
+    struct Rosen;
+    impl Problem for Rosen {
+        type Prepared = Vec<f64>;
+        fn dim(&self) -> usize {
+            2
+        }
+        fn len(&self) -> usize {
+            2
+        }
+        fn prepare(&self, x: &[f64]) -> Option<Vec<f64>> {
+            Some(x.to_vec())
+        }
+        fn residual_grad(&self, x: &Vec<f64>, i: usize, row: &mut [f64]) -> f64 {
+            if i == 0 {
+                row[0] = -20.0 * x[0];
+                row[1] = 10.0;
+                10.0 * (x[1] - x[0] * x[0])
+            } else {
+                row[0] = -1.0;
+                row[1] = 0.0;
+                1.0 - x[0]
+            }
+        }
+    }
+
+    #[test]
+    fn all_methods_solve_rosenbrock() {
+        for m in [Method::Lm, Method::GaussNewton, Method::NelderMead] {
+            let s = solve(&Rosen, &[-1.2, 1.0], m, Robust::None, &Limits::default());
+            assert!(
+                (s.x[0] - 1.0).abs() < 1e-6 && (s.x[1] - 1.0).abs() < 1e-6,
+                "{m:?}: {s:?}"
+            );
+            assert!(s.iterations > 0 && s.iterations <= 20 * Limits::default().max_iter);
+        }
+    }
+
+    #[test]
+    fn robust_weights_are_derivative_over_r() {
+        for rb in [Robust::Huber(0.5), Robust::Cauchy(0.5)] {
+            for &r in &[0.1, 0.7, 3.0] {
+                let h = 1e-6;
+                let d = (rb.rho(r + h) - rb.rho(r - h)) / (2.0 * h);
+                assert!((d / r - rb.weight(r)).abs() < 1e-6, "{rb:?} at {r}");
+            }
+        }
+    }
+}

@@ -1,0 +1,1112 @@
+//! Fitting reflection models to samples by nonlinear least squares.
+//!
+//! The pipeline for one data set (and one channel, or several with `shared` parameters):
+//! 1. samples are converted to f_r and filtered (finite values, `max_theta`); the geometry of
+//!    each sample is computed once ([`problem::Row`]);
+//! 2. **global initialisation** (variable projection): ps and pd enter the model linearly, so a
+//!    small grid over the nonlinear parameters (F0 = ((n−1)/(n+1))² and c3, or c1/c2) with a
+//!    weighted linear solve for (ps, pd) at each point finds the basin; it runs on a subsample;
+//! 3. the local method (Levenberg–Marquardt by default) from the best grid points and the
+//!    user's `start`, first on a subsample of at most 20,000 rows per channel, then on all rows;
+//! 4. statistics in natural parameters from JᵀJ at the solution: standard errors,
+//!    correlations, and honest warnings (with a profiled range) for parameters the data do not
+//!    determine.
+
+pub mod lsq;
+pub mod problem;
+
+use crate::data::Dataset;
+use crate::model::{Distribution, Model, ModelKind, param_bounds};
+use lsq::{Limits, Method, Problem, Robust, Solution};
+use problem::{BrdfProblem, Loss, Row, Slot, Transform, init_grid, linear_index};
+use std::time::Instant;
+
+/// A fit that cannot be run, with the fix.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{message}\n  fix: {fix}")]
+pub struct FitError {
+    /// What is wrong.
+    pub message: String,
+    /// What to do.
+    pub fix: String,
+}
+
+fn fit_error(message: impl Into<String>, fix: impl Into<String>) -> FitError {
+    FitError {
+        message: message.into(),
+        fix: fix.into(),
+    }
+}
+
+/// Robust loss choice (the threshold is set from the residuals, see [`FitOptions::robust`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RobustKind {
+    /// Huber.
+    Huber,
+    /// Cauchy.
+    Cauchy,
+}
+
+/// Options of a fit; [`FitOptions::new`] gives the defaults.
+#[derive(Clone, Debug)]
+pub struct FitOptions {
+    /// Model to fit.
+    pub kind: ModelKind,
+    /// Facet distribution for torrance-sparrow.
+    pub dist: Distribution,
+    /// Local method.
+    pub method: Method,
+    /// Loss.
+    pub loss: Loss,
+    /// Optional robust loss; its threshold is 1.345 × 1.4826 × the median |residual| at the
+    /// best start (Huber's 95 %-efficiency constant on a MAD scale).
+    pub robust: Option<RobustKind>,
+    /// Drop samples with θi or θo beyond this (degrees).
+    pub max_theta_deg: Option<f64>,
+    /// Parameters held fixed.
+    pub fix: Vec<(String, f64)>,
+    /// A start point (one more candidate; the only one with `local_only`).
+    pub start: Vec<(String, f64)>,
+    /// Parameters shared across channels (the others are per channel); empty = each channel
+    /// fitted on its own.
+    pub shared: Vec<String>,
+    /// Skip the global initialisation.
+    pub local_only: bool,
+    /// Phong fast power (γ = 2^k).
+    pub fast_pow: Option<u32>,
+    /// Solver limits.
+    pub limits: Limits,
+    /// Profile undetermined parameters to report the range that fits.
+    pub profile: bool,
+}
+
+impl FitOptions {
+    /// Defaults: LM, log loss, global initialisation on, D3.
+    pub fn new(kind: ModelKind) -> Self {
+        FitOptions {
+            kind,
+            dist: Distribution::D3,
+            method: Method::Lm,
+            loss: Loss::Log,
+            robust: None,
+            max_theta_deg: None,
+            fix: vec![],
+            start: vec![],
+            shared: vec![],
+            local_only: false,
+            fast_pow: None,
+            limits: Limits::default(),
+            profile: true,
+        }
+    }
+}
+
+/// The outcome of one fit (one channel, or a joint fit of several).
+#[derive(Clone, Debug)]
+pub struct FitResult {
+    /// Model fitted.
+    pub model: ModelKind,
+    /// Facet distribution (torrance-sparrow).
+    pub dist: Distribution,
+    /// Loss.
+    pub loss: Loss,
+    /// Method.
+    pub method: Method,
+    /// Channel name(s).
+    pub channel: String,
+    /// Parameter names and values, model order (per-channel names carry `_<channel>`).
+    pub params: Vec<(String, f64)>,
+    /// Standard errors (0 for fixed parameters).
+    pub stderr: Vec<f64>,
+    /// Correlation matrix in `params` order.
+    pub correlation: Vec<Vec<f64>>,
+    /// Which parameters were free.
+    pub free: Vec<bool>,
+    /// ½ Σ r² with the declared loss at the returned parameters, on the samples used.
+    pub cost: f64,
+    /// √(2 cost / samples_used).
+    pub rmse: f64,
+    /// Rows used (samples × channels).
+    pub samples_used: usize,
+    /// Iterations of the local method, all stages.
+    pub iterations: usize,
+    /// Cost and Jacobian evaluations, all stages.
+    pub evaluations: usize,
+    /// Why the final stage stopped.
+    pub termination: String,
+    /// Wall time.
+    pub seconds: f64,
+    /// Honest warnings: undetermined parameters with the range that fits, limits reached.
+    pub warnings: Vec<String>,
+    /// Bayesian information criterion m ln(2 cost/m) + k ln m.
+    pub bic: f64,
+    /// Akaike information criterion m ln(2 cost/m) + 2k.
+    pub aic: f64,
+    /// Number of free parameters.
+    pub n_free: usize,
+    /// Profiled ranges of the nonlinear parameters: values within 1 % of the minimum cost
+    /// (upper bound ∞ when the range is open).
+    pub ranges: Vec<(String, f64, f64)>,
+}
+
+impl FitResult {
+    /// Fitted model of channel `c` (for a single-channel fit, `c = 0`).
+    pub fn model_for(&self, c: usize) -> Model {
+        let names = self.model.param_names(self.dist);
+        let chans: Vec<&str> = self.channel.split(',').collect();
+        let suffix = if chans.len() > 1 {
+            format!("_{}", chans[c.min(chans.len() - 1)])
+        } else {
+            String::new()
+        };
+        let vals: Vec<f64> = names
+            .iter()
+            .map(|n| {
+                self.params
+                    .iter()
+                    .find(|(k, _)| *k == *n || *k == format!("{n}{suffix}"))
+                    .map(|(_, v)| *v)
+                    .unwrap_or(0.0)
+            })
+            .collect();
+        let mut m = Model {
+            kind: self.model,
+            dist: self.dist,
+            p: [0.0; 4],
+            fast_pow: None,
+        };
+        m.p[..vals.len()].copy_from_slice(&vals);
+        m
+    }
+
+    /// Value of parameter `name`.
+    pub fn get(&self, name: &str) -> Option<f64> {
+        self.params.iter().find(|(k, _)| k == name).map(|(_, v)| *v)
+    }
+
+    /// Model label, e.g. `torrance-sparrow (d3)`.
+    pub fn label(&self) -> String {
+        if self.model == ModelKind::TorranceSparrow {
+            format!("{} ({})", self.model, self.dist.name())
+        } else {
+            self.model.to_string()
+        }
+    }
+
+    /// The JSON object of the fit (schema in the README).
+    pub fn to_json(&self) -> serde_json::Value {
+        use serde_json::{Map, Value, json};
+        let mut params = Map::new();
+        let mut stderr = Map::new();
+        for ((n, v), s) in self.params.iter().zip(&self.stderr) {
+            params.insert(n.clone(), json!(v));
+            stderr.insert(n.clone(), json!(s));
+        }
+        let mut o = Map::new();
+        o.insert("model".into(), json!(self.model.name()));
+        o.insert(
+            "distribution".into(),
+            if self.model == ModelKind::TorranceSparrow {
+                json!(self.dist.name())
+            } else {
+                Value::Null
+            },
+        );
+        o.insert("loss".into(), json!(self.loss.name()));
+        o.insert("method".into(), json!(self.method.name()));
+        o.insert("channel".into(), json!(self.channel));
+        o.insert("params".into(), Value::Object(params));
+        o.insert("stderr".into(), Value::Object(stderr));
+        o.insert("correlation".into(), json!(self.correlation));
+        o.insert("cost".into(), json!(self.cost));
+        o.insert("rmse".into(), json!(self.rmse));
+        o.insert("samples_used".into(), json!(self.samples_used));
+        o.insert("iterations".into(), json!(self.iterations));
+        o.insert("evaluations".into(), json!(self.evaluations));
+        o.insert("termination".into(), json!(self.termination));
+        o.insert("seconds".into(), json!(self.seconds));
+        o.insert("warnings".into(), json!(self.warnings));
+        let mut ranges = Map::new();
+        for (n, lo, hi) in &self.ranges {
+            ranges.insert(
+                n.clone(),
+                json!([
+                    lo,
+                    if hi.is_finite() {
+                        json!(hi)
+                    } else {
+                        Value::Null
+                    }
+                ]),
+            );
+        }
+        o.insert("ranges".into(), Value::Object(ranges));
+        o.insert("aic".into(), json!(self.aic));
+        o.insert("bic".into(), json!(self.bic));
+        Value::Object(o)
+    }
+
+    /// Read a fit back from its JSON object.
+    pub fn from_json(v: &serde_json::Value) -> Result<FitResult, String> {
+        let s = |k: &str| v.get(k).and_then(|x| x.as_str()).map(str::to_string);
+        let model = s("model")
+            .and_then(|m| ModelKind::parse(&m))
+            .ok_or("the fit JSON has no known 'model'")?;
+        let dist = s("distribution")
+            .and_then(|d| Distribution::parse(&d))
+            .unwrap_or_default();
+        let obj = v
+            .get("params")
+            .and_then(|p| p.as_object())
+            .ok_or("the fit JSON has no 'params' object")?;
+        let params: Vec<(String, f64)> = obj
+            .iter()
+            .map(|(k, x)| (k.clone(), x.as_f64().unwrap_or(f64::NAN)))
+            .collect();
+        if params.iter().any(|(_, x)| !x.is_finite()) {
+            return Err("a parameter in the fit JSON is not a number".into());
+        }
+        let n = params.len();
+        let f = |k: &str| v.get(k).and_then(|x| x.as_f64()).unwrap_or(f64::NAN);
+        Ok(FitResult {
+            model,
+            dist,
+            loss: s("loss").and_then(|l| Loss::parse(&l)).unwrap_or_default(),
+            method: s("method")
+                .and_then(|m| Method::parse(&m))
+                .unwrap_or_default(),
+            channel: s("channel").unwrap_or_default(),
+            stderr: vec![0.0; n],
+            correlation: vec![],
+            free: vec![true; n],
+            params,
+            cost: f("cost"),
+            rmse: f("rmse"),
+            samples_used: f("samples_used") as usize,
+            iterations: 0,
+            evaluations: 0,
+            termination: s("termination").unwrap_or_default(),
+            seconds: f("seconds"),
+            warnings: vec![],
+            bic: f("bic"),
+            aic: f("aic"),
+            n_free: n,
+            ranges: vec![],
+        })
+    }
+}
+
+/// One channel's usable samples, converted to f_r.
+struct ChannelRows {
+    name: String,
+    rows: Vec<Row>,
+    theta_i: Vec<f64>,
+    all_zero: bool,
+}
+
+fn channel_rows(ds: &Dataset, c: usize, opts: &FitOptions) -> ChannelRows {
+    let f = ds.brdf_values(c);
+    let max = opts.max_theta_deg.map(f64::to_radians);
+    let mut rows = Vec::with_capacity(ds.len());
+    let mut theta_i = Vec::new();
+    let mut all_zero = true;
+    for k in 0..ds.len() {
+        let v = f[k];
+        if !v.is_finite() {
+            continue;
+        }
+        let a = ds.angles(k);
+        if let Some(m) = max
+            && (a[0] > m || a[2] > m)
+        {
+            continue;
+        }
+        let w = ds.weights.as_ref().map_or(1.0, |w| w[k]);
+        if w <= 0.0 {
+            continue;
+        }
+        let g = crate::model::Geometry::from_angles(a[0], a[1], a[2], a[3]);
+        if !g.visible() {
+            continue;
+        }
+        all_zero &= v == 0.0;
+        rows.push(Row {
+            g,
+            cos_i: g.nl,
+            target: opts.loss.target(v, g.nl),
+            sw: w.sqrt(),
+        });
+        theta_i.push(a[0]);
+    }
+    let name = ds.channels[c].name.clone();
+    ChannelRows {
+        name: if name.is_empty() {
+            "value".into()
+        } else {
+            name
+        },
+        rows,
+        theta_i,
+        all_zero,
+    }
+}
+
+/// Fit `opts.kind` to every channel of `ds` (or jointly with `opts.shared`).
+pub fn fit(ds: &Dataset, opts: &FitOptions) -> Result<Vec<FitResult>, FitError> {
+    let names = opts.kind.param_names(opts.dist);
+    for (k, v) in opts.fix.iter().chain(&opts.start) {
+        if !names.contains(&k.as_str()) {
+            return Err(fit_error(
+                format!("model {} has no parameter {k}", opts.kind),
+                format!("its parameters are {}", names.join(", ")),
+            ));
+        }
+        let (ok, bounds) = param_bounds(k, *v);
+        if !ok {
+            return Err(fit_error(
+                format!("{k} = {v} is outside its bounds ({bounds})"),
+                format!("choose a value with {bounds}"),
+            ));
+        }
+    }
+    for s in &opts.shared {
+        if !names.contains(&s.as_str()) {
+            return Err(fit_error(
+                format!("--shared {s}: model {} has no parameter {s}", opts.kind),
+                format!("its parameters are {}", names.join(", ")),
+            ));
+        }
+    }
+    let chans: Vec<ChannelRows> = (0..ds.channels.len())
+        .map(|c| channel_rows(ds, c, opts))
+        .collect();
+    if opts.shared.is_empty() || chans.len() == 1 {
+        chans
+            .into_iter()
+            .map(|c| fit_group(vec![c], opts))
+            .collect()
+    } else {
+        Ok(vec![fit_group(chans, opts)?])
+    }
+}
+
+/// A reported parameter: name, model index, channel, and its slot.
+#[derive(Clone, Debug)]
+struct Entry {
+    name: String,
+    slot: Slot,
+}
+
+fn fit_group(chans: Vec<ChannelRows>, opts: &FitOptions) -> Result<FitResult, FitError> {
+    let t0 = Instant::now();
+    let kind = opts.kind;
+    let names = kind.param_names(opts.dist);
+    let multi = chans.len() > 1;
+    // Layout: fixed, shared or per channel.
+    let mut transforms = Vec::new();
+    let mut var_names: Vec<String> = Vec::new();
+    let mut layout = vec![[Slot::Fixed(0.0); 4]; chans.len()];
+    let mut entries: Vec<Entry> = Vec::new();
+    for (j, name) in names.iter().enumerate() {
+        if let Some((_, v)) = opts.fix.iter().rev().find(|(k, _)| k == name) {
+            for l in layout.iter_mut() {
+                l[j] = Slot::Fixed(*v);
+            }
+            entries.push(Entry {
+                name: name.to_string(),
+                slot: Slot::Fixed(*v),
+            });
+        } else if !multi || opts.shared.iter().any(|s| s == name) {
+            let k = transforms.len();
+            transforms.push(Transform::for_param(name));
+            var_names.push(name.to_string());
+            for l in layout.iter_mut() {
+                l[j] = Slot::Free(k);
+            }
+            entries.push(Entry {
+                name: name.to_string(),
+                slot: Slot::Free(k),
+            });
+        }
+    }
+    for (c, ch) in chans.iter().enumerate() {
+        for (j, name) in names.iter().enumerate() {
+            if multi
+                && !opts.shared.iter().any(|s| s == name)
+                && !opts.fix.iter().any(|(k, _)| k == name)
+            {
+                let k = transforms.len();
+                transforms.push(Transform::for_param(name));
+                let nm = format!("{name}_{}", ch.name);
+                var_names.push(nm.clone());
+                layout[c][j] = Slot::Free(k);
+                entries.push(Entry {
+                    name: nm,
+                    slot: Slot::Free(k),
+                });
+            }
+        }
+    }
+    let channel_label = chans
+        .iter()
+        .map(|c| c.name.clone())
+        .collect::<Vec<_>>()
+        .join(",");
+    // Data checks.
+    let m: usize = chans.iter().map(|c| c.rows.len()).sum();
+    let nfree = transforms.len();
+    if m <= nfree {
+        return Err(fit_error(
+            format!("channel {channel_label}: {m} usable samples for {nfree} free parameters"),
+            "a fit needs more samples than free parameters: check --max-theta, the negative policy, or --fix some parameters",
+        ));
+    }
+    if chans.iter().all(|c| c.all_zero) {
+        return Err(fit_error(
+            format!("channel {channel_label}: every value is zero"),
+            "there is no reflectance to fit; check the channel and the file",
+        ));
+    }
+    let n_free = layout[0][0] != Slot::Fixed(0.0)
+        && names[0] == "n"
+        && matches!(layout[0][0], Slot::Free(_));
+    if kind == ModelKind::TorranceSparrow && n_free {
+        let first = chans.iter().find_map(|c| c.theta_i.first().copied());
+        if let Some(t) = first
+            && chans
+                .iter()
+                .all(|c| c.theta_i.iter().all(|x| (x - t).abs() < 1e-9))
+        {
+            return Err(fit_error(
+                format!(
+                    "channel {channel_label}: every sample has θi = {:.2}°; the Fresnel index n cannot be separated from ps at one incidence angle",
+                    t.to_degrees()
+                ),
+                "add samples at other incidence angles, or hold the index with --fix n=VALUE",
+            ));
+        }
+    }
+    let mut rows = Vec::with_capacity(m);
+    let mut starts = vec![0];
+    for c in &chans {
+        rows.extend_from_slice(&c.rows);
+        starts.push(rows.len());
+    }
+    let mut template = Model::new(kind, opts.dist, &[1.5, 0.5, 0.5, 0.5]).unwrap_or_else(|_| {
+        Model::new(kind, opts.dist, &[10.0, 0.5, 0.5, 0.5]).expect("valid template")
+    });
+    template.fast_pow = opts.fast_pow;
+    let full = BrdfProblem {
+        template,
+        rows,
+        starts,
+        layout,
+        transforms,
+        loss: opts.loss,
+    };
+    drop(chans);
+    let sub = if full.rows.len() > 20_000 * full.layout.len() {
+        Some(full.subsample(20_000))
+    } else {
+        None
+    };
+    let work = sub.as_ref().unwrap_or(&full);
+
+    // Candidate starts.
+    let mut candidates: Vec<Vec<f64>> = Vec::new();
+    if !opts.local_only {
+        candidates.extend(global_init(&full, &var_names, opts));
+    }
+    if !opts.start.is_empty() || candidates.is_empty() {
+        candidates.push(start_vector(&full, &var_names, &opts.start));
+    }
+    let mut iterations = 0;
+    let mut evaluations = 0;
+    let mut best: Option<Solution> = None;
+    for x0 in &candidates {
+        let s = lsq::solve(work, x0, opts.method, Robust::None, &opts.limits);
+        iterations += s.iterations;
+        evaluations += s.evaluations;
+        if best.as_ref().is_none_or(|b| s.cost < b.cost) {
+            best = Some(s);
+        }
+    }
+    let mut sol = best.expect("at least one candidate");
+    let robust = match opts.robust {
+        None => Robust::None,
+        Some(kind) => {
+            let delta = robust_scale(&full, &sol.x);
+            match kind {
+                RobustKind::Huber => Robust::Huber(delta),
+                RobustKind::Cauchy => Robust::Cauchy(delta),
+            }
+        }
+    };
+    if sub.is_some() || robust != Robust::None {
+        let s = lsq::solve(&full, &sol.x, opts.method, robust, &opts.limits);
+        iterations += s.iterations;
+        evaluations += s.evaluations;
+        sol = s;
+    }
+    if !sol.cost.is_finite() {
+        return Err(fit_error(
+            format!("channel {channel_label}: the fit found no point with a finite cost"),
+            "check the data for extreme values, or give a --start",
+        ));
+    }
+    // Statistics in natural parameters.
+    let cost = lsq::cost(&full, &sol.x, Robust::None).unwrap_or(f64::INFINITY);
+    let theta: Vec<f64> = (0..nfree)
+        .map(|k| full.transforms[k].apply(sol.x[k]).0)
+        .collect();
+    let mut warnings = Vec::new();
+    if !sol.converged {
+        warnings.push(format!(
+            "the solver stopped before converging: {}",
+            sol.termination
+        ));
+    }
+    let (se, corr, singular) = statistics(&full, &theta, cost, m);
+    let prof = full.subsample(2500);
+    let mut ranges = Vec::new();
+    for k in 0..nfree {
+        let name = &var_names[k];
+        let base = name.split('_').next().unwrap_or(name);
+        let nonlinear = matches!(base, "n" | "c1" | "c2" | "c3");
+        let range = if opts.profile && nonlinear {
+            profile_range(&prof, &sol.x, k, opts)
+        } else {
+            None
+        };
+        let (lo, hi) = full.transforms[k].bounds();
+        let at_bound = full.transforms[k] != Transform::Square
+            && ((sol.x[k] - lo).abs() < 1e-6 || (sol.x[k] - hi).abs() < 1e-6);
+        let rel = se[k] / theta[k].abs().max(1e-300);
+        let wide = range.is_some_and(|(a, b)| !(b / a <= 1.5));
+        if let Some((a, b)) = range {
+            ranges.push((name.clone(), a, b));
+        }
+        if !(rel <= 0.5) || singular[k] || at_bound || wide {
+            let why = if at_bound {
+                format!("{name} ran to the edge of its range ({:.4e})", theta[k])
+            } else if singular[k] {
+                format!("{name} is not determined by the data (JᵀJ is near-singular in it)")
+            } else if !(rel <= 0.5) {
+                format!(
+                    "{name} is not determined by the data (relative standard error {:.0} %)",
+                    100.0 * rel
+                )
+            } else {
+                format!("{name} is only weakly determined by the data")
+            };
+            warnings.push(match range {
+                Some(r) => format!("{why}: {}", describe_range(name, r)),
+                None => why,
+            });
+        }
+    }
+    // Report every model parameter, fixed ones included.
+    let mut params = Vec::new();
+    let mut stderr = Vec::new();
+    let mut free = Vec::new();
+    let mut order = Vec::new();
+    for e in &entries {
+        match e.slot {
+            Slot::Free(k) => {
+                params.push((e.name.clone(), theta[k]));
+                stderr.push(se[k]);
+                free.push(true);
+                order.push(Some(k));
+            }
+            Slot::Fixed(v) => {
+                params.push((e.name.clone(), v));
+                stderr.push(0.0);
+                free.push(false);
+                order.push(None);
+            }
+        }
+    }
+    let correlation: Vec<Vec<f64>> = order
+        .iter()
+        .enumerate()
+        .map(|(a, oa)| {
+            order
+                .iter()
+                .enumerate()
+                .map(|(b, ob)| match (oa, ob) {
+                    (Some(i), Some(j)) => corr[*i][*j],
+                    _ => {
+                        if a == b {
+                            1.0
+                        } else {
+                            0.0
+                        }
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let rss = 2.0 * cost;
+    let mf = m as f64;
+    let kf = nfree as f64;
+    let loglike_term = mf * (rss / mf).max(1e-300).ln();
+    Ok(FitResult {
+        model: kind,
+        dist: opts.dist,
+        loss: opts.loss,
+        method: opts.method,
+        channel: channel_label,
+        params,
+        stderr,
+        correlation,
+        free,
+        cost,
+        rmse: (rss / mf).sqrt(),
+        samples_used: m,
+        iterations,
+        evaluations,
+        termination: sol.termination,
+        seconds: t0.elapsed().as_secs_f64(),
+        warnings,
+        bic: loglike_term + kf * mf.ln(),
+        aic: loglike_term + 2.0 * kf,
+        n_free: nfree,
+        ranges,
+    })
+}
+
+/// Robust threshold from the residuals at `x`: 1.345 · 1.4826 · median |r|.
+fn robust_scale(p: &BrdfProblem, x: &[f64]) -> f64 {
+    let Some(prep) = p.prepare(x) else {
+        return 1.0;
+    };
+    let mut r: Vec<f64> = (0..p.len()).map(|i| p.residual(&prep, i).abs()).collect();
+    let mid = r.len() / 2;
+    let med = *r.select_nth_unstable_by(mid, f64::total_cmp).1;
+    (1.345 * 1.4826 * med).max(1e-12)
+}
+
+/// The default or user start as solver variables.
+fn start_vector(p: &BrdfProblem, var_names: &[String], start: &[(String, f64)]) -> Vec<f64> {
+    var_names
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let base = name.split('_').next().unwrap_or(name);
+            let v = start
+                .iter()
+                .rev()
+                .find(|(n, _)| n == base || n == name)
+                .map(|(_, v)| *v)
+                .unwrap_or(match base {
+                    "n" => 1.5,
+                    "c3" => 0.5,
+                    "c1" => 10.0,
+                    "c2" => 3.0,
+                    _ => 0.5,
+                });
+            p.transforms[k].invert(v)
+        })
+        .collect()
+}
+
+/// Variable projection over a grid of the nonlinear parameters: at each grid point the free
+/// ps and pd of each channel come from a weighted linear least-squares solve (weights that
+/// linearise the log loss), clipped to ≥ 0; the best three grid points are returned as
+/// solver variables.
+fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> Vec<Vec<f64>> {
+    let p = full.subsample(2500);
+    let nfree = p.transforms.len();
+    let kind = opts.kind;
+    let names = kind.param_names(opts.dist);
+    let ips = linear_index(kind, "ps");
+    let ipd = linear_index(kind, "pd").expect("every model has pd");
+    // Nonlinear free variables and their grids.
+    let nonlinear: Vec<(usize, Vec<f64>)> = (0..nfree)
+        .filter_map(|k| {
+            let base = var_names[k].split('_').next().unwrap_or("");
+            let g = init_grid(base, opts.dist);
+            (!g.is_empty()).then_some((k, g))
+        })
+        .collect();
+    let mut points: Vec<Vec<f64>> = vec![vec![]];
+    for (_, g) in &nonlinear {
+        points = points
+            .iter()
+            .flat_map(|pt| {
+                g.iter().map(move |v| {
+                    let mut q = pt.clone();
+                    q.push(*v);
+                    q
+                })
+            })
+            .collect();
+    }
+    use rayon::prelude::*;
+    let mut scored: Vec<(f64, Vec<f64>)> = points
+        .par_iter()
+        .filter_map(|pt| {
+            // Natural values of all free variables at this grid point (linear ones solved).
+            let mut theta = vec![f64::NAN; nfree];
+            for ((k, _), v) in nonlinear.iter().zip(pt) {
+                theta[*k] = *v;
+            }
+            for c in 0..p.layout.len() {
+                let slots = p.layout[c];
+                let rows = &p.rows[p.starts[c]..p.starts[c + 1]];
+                // Model with ps = 1, pd = 0 gives the specular basis; pd's basis is 1/π.
+                let mut vals = [0.0; 4];
+                for j in 0..names.len() {
+                    vals[j] = match slots[j] {
+                        Slot::Fixed(v) => v,
+                        Slot::Free(k) => theta[k],
+                    };
+                }
+                if let Some(i) = ips {
+                    vals[i] = 1.0;
+                }
+                vals[ipd] = 0.0;
+                let spec_model = full.template.with_params(&vals);
+                let fixed_ps = ips.and_then(|i| match slots[i] {
+                    Slot::Fixed(v) => Some(v),
+                    _ => None,
+                });
+                let fixed_pd = match slots[ipd] {
+                    Slot::Fixed(v) => Some(v),
+                    _ => None,
+                };
+                let (mut a11, mut a12, mut a22, mut b1, mut b2) = (0.0, 0.0, 0.0, 0.0, 0.0);
+                for r in rows {
+                    let fd = match opts.loss {
+                        Loss::Log => r.target.exp_m1() / r.cos_i,
+                        Loss::Linear => r.target,
+                    };
+                    let w = match opts.loss {
+                        Loss::Log => (r.cos_i / (1.0 + r.cos_i * fd)).powi(2),
+                        Loss::Linear => 1.0,
+                    } * r.sw
+                        * r.sw;
+                    let s = if ips.is_some() {
+                        spec_model.brdf(&r.g)
+                    } else {
+                        0.0
+                    };
+                    let d = std::f64::consts::FRAC_1_PI;
+                    let mut y = fd;
+                    if let Some(v) = fixed_ps {
+                        y -= v * s;
+                    }
+                    if let Some(v) = fixed_pd {
+                        y -= v * d;
+                    }
+                    a11 += w * s * s;
+                    a12 += w * s * d;
+                    a22 += w * d * d;
+                    b1 += w * s * y;
+                    b2 += w * d * y;
+                }
+                let solve1 = |a: f64, b: f64| if a > 0.0 { (b / a).max(0.0) } else { 0.0 };
+                let free_ps = ips.is_some() && fixed_ps.is_none();
+                let free_pd = fixed_pd.is_none();
+                let (ps, pd) = match (free_ps, free_pd) {
+                    (true, true) => {
+                        let det = a11 * a22 - a12 * a12;
+                        let (mut x1, mut x2) = if det > 1e-300 {
+                            ((b1 * a22 - b2 * a12) / det, (a11 * b2 - a12 * b1) / det)
+                        } else {
+                            (-1.0, -1.0)
+                        };
+                        if x1 < 0.0 || x2 < 0.0 || !x1.is_finite() || !x2.is_finite() {
+                            // Non-negative least squares with two unknowns: best of the faces.
+                            let c1 = (solve1(a11, b1), 0.0);
+                            let c2 = (0.0, solve1(a22, b2));
+                            let q = |(u, v): (f64, f64)| {
+                                a11 * u * u + 2.0 * a12 * u * v + a22 * v * v
+                                    - 2.0 * (b1 * u + b2 * v)
+                            };
+                            (x1, x2) = if q(c1) <= q(c2) { c1 } else { c2 };
+                        }
+                        (x1, x2)
+                    }
+                    (true, false) => (solve1(a11, b1), 0.0),
+                    (false, true) => (0.0, solve1(a22, b2)),
+                    (false, false) => (0.0, 0.0),
+                };
+                if let (Some(i), true) = (ips, free_ps)
+                    && let Slot::Free(k) = slots[i]
+                {
+                    theta[k] = ps;
+                }
+                if free_pd && let Slot::Free(k) = slots[ipd] {
+                    theta[k] = pd;
+                }
+            }
+            let x: Vec<f64> = (0..nfree)
+                .map(|k| p.transforms[k].invert(theta[k]))
+                .collect();
+            let c = lsq::cost(&p, &x, Robust::None)?;
+            Some((c, x))
+        })
+        .collect();
+    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // Keep three candidates, skipping near-duplicates of ones already kept.
+    let mut out: Vec<Vec<f64>> = Vec::new();
+    for (_, x) in scored {
+        if out.len() == 3 {
+            break;
+        }
+        if out
+            .iter()
+            .all(|y| y.iter().zip(&x).any(|(a, b)| (a - b).abs() > 0.3))
+        {
+            out.push(x);
+        }
+    }
+    out
+}
+
+/// Standard errors, correlations and per-parameter near-singularity flags from JᵀJ in natural
+/// parameters (σ̂² = 2 cost/(m − p)).
+fn statistics(
+    full: &BrdfProblem,
+    theta: &[f64],
+    cost: f64,
+    m: usize,
+) -> (Vec<f64>, Vec<Vec<f64>>, Vec<bool>) {
+    let p = theta.len();
+    let nat = full.natural();
+    let Some(ne) = lsq::normal_equations(&nat, theta, Robust::None) else {
+        return (
+            vec![f64::INFINITY; p],
+            vec![vec![f64::NAN; p]; p],
+            vec![true; p],
+        );
+    };
+    let a = nalgebra::DMatrix::from_row_slice(p, p, &ne.jtj);
+    let d: Vec<f64> = (0..p).map(|i| a[(i, i)].max(1e-300).sqrt()).collect();
+    let scaled = nalgebra::DMatrix::from_fn(p, p, |i, j| a[(i, j)] / (d[i] * d[j]));
+    let eig = scaled.clone().symmetric_eigen();
+    let (imin, lmin) =
+        eig.eigenvalues
+            .iter()
+            .enumerate()
+            .fold(
+                (0, f64::INFINITY),
+                |acc, (i, &l)| if l < acc.1 { (i, l) } else { acc },
+            );
+    let lmax = eig.eigenvalues.iter().cloned().fold(0.0, f64::max);
+    let near_singular = !(lmin > 1e-12 * lmax);
+    let singular: Vec<bool> = (0..p)
+        .map(|i| near_singular && eig.eigenvectors[(i, imin)].abs() > 0.3)
+        .collect();
+    let sigma2 = 2.0 * cost / (m.saturating_sub(p)).max(1) as f64;
+    // Pseudo-inverse in the scaled space, dropping directions below 1e-14 of the largest.
+    let mut inv = nalgebra::DMatrix::<f64>::zeros(p, p);
+    for k in 0..p {
+        let l = eig.eigenvalues[k];
+        let v = eig.eigenvectors.column(k);
+        let il = if l > 1e-14 * lmax {
+            1.0 / l
+        } else {
+            1e14 / lmax.max(1e-300)
+        };
+        inv += v * v.transpose() * il;
+    }
+    let cov = nalgebra::DMatrix::from_fn(p, p, |i, j| sigma2 * inv[(i, j)] / (d[i] * d[j]));
+    let se: Vec<f64> = (0..p).map(|i| cov[(i, i)].max(0.0).sqrt()).collect();
+    let corr = (0..p)
+        .map(|i| {
+            (0..p)
+                .map(|j| {
+                    let c = cov[(i, j)] / (se[i] * se[j]);
+                    if c.is_finite() {
+                        c.clamp(-1.0, 1.0)
+                    } else {
+                        0.0
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    (se, corr, singular)
+}
+
+/// Human-readable form of a profiled range (∞ upper bound = open).
+pub fn describe_range(name: &str, (lo, hi): (f64, f64)) -> String {
+    if hi.is_infinite() {
+        format!("{name} ≥ {lo:.4} fits within 1 % of the minimum cost")
+    } else {
+        format!("{name} in [{lo:.4}, {hi:.4}] fits within 1 % of the minimum cost")
+    }
+}
+
+/// Profile a free variable on problem `p`: hold it at grid values, refit the rest from the
+/// optimum `x`, and return the range of values whose cost is within 1 % of the minimum. The
+/// bounds are the nearest grid values that do *not* fit, so the range contains every value
+/// that does; an upper bound past the grid's end is ∞ (the lower end of the grid is the
+/// parameter's own bound).
+fn profile_range(p: &BrdfProblem, x: &[f64], k: usize, opts: &FitOptions) -> Option<(f64, f64)> {
+    let t = p.transforms[k];
+    let (ulo, uhi) = t.bounds();
+    let limits = Limits {
+        max_iter: 60,
+        ..opts.limits
+    };
+    // Cost of the problem with variable k held at solver value u, the rest refitted from x.
+    let held = |u: f64| -> f64 {
+        let mut q = p.clone();
+        let v = t.apply(u).0;
+        for slots in q.layout.iter_mut() {
+            for s in slots.iter_mut() {
+                *s = match *s {
+                    Slot::Free(j) if j == k => Slot::Fixed(v),
+                    Slot::Free(j) if j > k => Slot::Free(j - 1),
+                    other => other,
+                };
+            }
+        }
+        q.transforms.remove(k);
+        let mut x0 = x.to_vec();
+        x0.remove(k);
+        let s = lsq::levenberg_marquardt(&q, &x0, Robust::None, &limits);
+        if s.cost.is_finite() {
+            s.cost
+        } else {
+            f64::INFINITY
+        }
+    };
+    let c0 = lsq::cost(p, x, Robust::None)?;
+    let limit = 1.01 * c0;
+    // Walk outward in solver space with doubling steps until the cost exceeds the limit, then
+    // bisect; the bound returned is the failing end of the last bracket.
+    let side = |dir: f64| -> Option<f64> {
+        let edge = if dir > 0.0 { uhi } else { ulo };
+        let mut inside = x[k];
+        let mut step = 0.05;
+        let outside = loop {
+            let u = (inside + dir * step).clamp(ulo, uhi);
+            if held(u) > limit {
+                break u;
+            }
+            if u == edge {
+                return None;
+            }
+            inside = u;
+            step *= 2.0;
+        };
+        let (mut a, mut b) = (inside, outside);
+        for _ in 0..5 {
+            let mid = 0.5 * (a + b);
+            if held(mid) > limit {
+                b = mid;
+            } else {
+                a = mid;
+            }
+        }
+        Some(b)
+    };
+    let (lo, hi) = rayon::join(|| side(-1.0), || side(1.0));
+    let lo = lo.map_or(t.apply(ulo).0, |u| t.apply(u).0);
+    let hi = hi.map_or(f64::INFINITY, |u| t.apply(u).0);
+    Some((lo, hi))
+}
+
+/// The models compared by `--model all`: (kind, distribution), simplest first.
+pub fn all_models() -> Vec<(ModelKind, Distribution)> {
+    vec![
+        (ModelKind::Lambert, Distribution::D3),
+        (ModelKind::Phong, Distribution::D3),
+        (ModelKind::BlinnPhong, Distribution::D3),
+        (ModelKind::TorranceSparrow, Distribution::D1),
+        (ModelKind::TorranceSparrow, Distribution::D2),
+        (ModelKind::TorranceSparrow, Distribution::D3),
+    ]
+}
+
+/// Rank fits of one channel by BIC; returns the order and the index of the recommended model:
+/// the one with the fewest free parameters within 2 BIC of the best.
+pub fn rank(fits: &[FitResult]) -> (Vec<usize>, usize) {
+    let mut order: Vec<usize> = (0..fits.len()).collect();
+    order.sort_by(|&a, &b| fits[a].bic.total_cmp(&fits[b].bic));
+    let best = fits[order[0]].bic;
+    let rec = order
+        .iter()
+        .copied()
+        .filter(|&i| fits[i].bic <= best + 2.0)
+        .min_by(|&a, &b| {
+            fits[a]
+                .n_free
+                .cmp(&fits[b].n_free)
+                .then(fits[a].bic.total_cmp(&fits[b].bic))
+        })
+        .unwrap_or(order[0]);
+    (order, rec)
+}
+
+/// The terminal table of one fit.
+pub fn format_fit(f: &FitResult) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{} on channel {}: {} loss, {} ({} samples)",
+        f.label(),
+        f.channel,
+        f.loss.name(),
+        f.method.name(),
+        f.samples_used
+    );
+    let _ = writeln!(s, "  {:<8} {:>14} {:>12}", "param", "value", "std. error");
+    for (((n, v), se), free) in f.params.iter().zip(&f.stderr).zip(&f.free) {
+        if *free {
+            let _ = writeln!(s, "  {n:<8} {v:>14.6} {se:>12.3e}");
+        } else {
+            let _ = writeln!(s, "  {n:<8} {v:>14.6} {:>12}", "(fixed)");
+        }
+    }
+    let _ = writeln!(
+        s,
+        "  cost {:.6e}  rmse {:.4e}  iterations {}  evaluations {}  {:.3} s",
+        f.cost, f.rmse, f.iterations, f.evaluations, f.seconds
+    );
+    let _ = writeln!(s, "  termination: {}", f.termination);
+    for (n, lo, hi) in &f.ranges {
+        let _ = writeln!(s, "  range: {}", describe_range(n, (*lo, *hi)));
+    }
+    for w in &f.warnings {
+        let _ = writeln!(s, "  warning: {w}");
+    }
+    s
+}
+
+/// The model-comparison table of one channel.
+pub fn format_ranking(fits: &[FitResult]) -> String {
+    use std::fmt::Write;
+    let (order, rec) = rank(fits);
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "  {:<26} {:>3} {:>13} {:>12} {:>12} {:>9}",
+        "model", "k", "cost", "AIC", "BIC", "ΔBIC"
+    );
+    let best = fits[order[0]].bic;
+    for &i in &order {
+        let f = &fits[i];
+        let mark = if i == rec {
+            "  ← simplest the data support"
+        } else {
+            ""
+        };
+        let _ = writeln!(
+            s,
+            "  {:<26} {:>3} {:>13.6e} {:>12.1} {:>12.1} {:>9.1}{mark}",
+            f.label(),
+            f.n_free,
+            f.cost,
+            f.aic,
+            f.bic,
+            f.bic - best
+        );
+    }
+    s
+}
