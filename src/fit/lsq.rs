@@ -26,7 +26,7 @@ pub trait Problem: Sync {
     /// Number of parameters.
     fn dim(&self) -> usize;
     /// Number of residuals.
-    fn len(&self) -> usize;
+    fn n_residuals(&self) -> usize;
     /// Derive the per-evaluation data from `x`, or `None` if `x` is not admissible.
     fn prepare(&self, x: &[f64]) -> Option<Self::Prepared>;
     /// Residual `i` and its gradient with respect to the parameters (written to `row`).
@@ -181,7 +181,7 @@ const CHUNK: usize = 4096;
 /// Cost Σ ρ(r_i) at `x`; `None` where `x` is inadmissible or the cost is not finite.
 pub fn cost<P: Problem>(p: &P, x: &[f64], robust: Robust) -> Option<f64> {
     let prep = p.prepare(x)?;
-    let m = p.len();
+    let m = p.n_residuals();
     let parts: Vec<f64> = (0..m.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
@@ -200,7 +200,7 @@ pub fn cost<P: Problem>(p: &P, x: &[f64], robust: Robust) -> Option<f64> {
 pub fn normal_equations<P: Problem>(p: &P, x: &[f64], robust: Robust) -> Option<Normal> {
     let prep = p.prepare(x)?;
     let n = p.dim();
-    let m = p.len();
+    let m = p.n_residuals();
     let parts: Vec<Normal> = (0..m.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
@@ -628,7 +628,7 @@ mod tests {
         fn dim(&self) -> usize {
             2
         }
-        fn len(&self) -> usize {
+        fn n_residuals(&self) -> usize {
             2
         }
         fn prepare(&self, x: &[f64]) -> Option<Vec<f64>> {

@@ -680,7 +680,9 @@ fn robust_scale(p: &BrdfProblem, x: &[f64]) -> f64 {
     let Some(prep) = p.prepare(x) else {
         return 1.0;
     };
-    let mut r: Vec<f64> = (0..p.len()).map(|i| p.residual(&prep, i).abs()).collect();
+    let mut r: Vec<f64> = (0..p.n_residuals())
+        .map(|i| p.residual(&prep, i).abs())
+        .collect();
     let mid = r.len() / 2;
     let med = *r.select_nth_unstable_by(mid, f64::total_cmp).1;
     (1.345 * 1.4826 * med).max(1e-12)

@@ -237,7 +237,7 @@ impl Problem for BrdfProblem {
         self.transforms.len()
     }
 
-    fn len(&self) -> usize {
+    fn n_residuals(&self) -> usize {
         self.rows.len()
     }
 
