@@ -360,6 +360,19 @@ pub fn levenberg_marquardt<P: Problem>(
             }
             continue;
         };
+        // Relative step bound: no parameter moves by more than its own magnitude in one step
+        // (floored at 1e-3 of the largest). This stops "parameter evaporation", where a long
+        // first step lands on a plateau (an exponential saturated, F ≈ 1) that is a false
+        // minimum at infinity; the damping grows until the step fits, without evaluations.
+        let xmax = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        let too_long = h
+            .iter()
+            .zip(&x)
+            .any(|(hi, xi)| hi.abs() > xi.abs().max(1e-3 * xmax).max(1e-6));
+        if too_long && mu < 1e20 {
+            mu *= 2.0;
+            continue;
+        }
         let mut xn: Vec<f64> = x.iter().zip(&h).map(|(a, b)| a + b).collect();
         project(&mut xn, &bounds);
         let step: Vec<f64> = xn.iter().zip(&x).map(|(a, b)| a - b).collect();
