@@ -131,7 +131,8 @@ fn model(name: &str, x: &[f64], b: &[D]) -> D {
         "Kirby2" => (b[0] + b[1] * xv + b[2] * xv * xv) / (k(1.0) + b[3] * xv + b[4] * xv * xv),
         "Hahn1" | "Thurber" => {
             let (x2, x3) = (xv * xv, xv * xv * xv);
-            (b[0] + b[1] * xv + b[2] * x2 + b[3] * x3) / (k(1.0) + b[4] * xv + b[5] * x2 + b[6] * x3)
+            (b[0] + b[1] * xv + b[2] * x2 + b[3] * x3)
+                / (k(1.0) + b[4] * xv + b[5] * x2 + b[6] * x3)
         }
         "Nelson" => b[0] - b[1] * xv * (-(b[2] * k(x[1]))).exp(),
         "MGH17" => b[0] + b[1] * (-(xv * b[3])).exp() + b[2] * (-(xv * b[4])).exp(),
@@ -167,7 +168,8 @@ struct Nist {
 }
 
 fn read(name: &str) -> Nist {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("tests/data/nist-strd/{name}.dat"));
+    let p =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("tests/data/nist-strd/{name}.dat"));
     let text = std::fs::read_to_string(p).unwrap();
     let lines: Vec<&str> = text.lines().collect();
     let (mut s1, mut s2, mut cert) = (vec![], vec![], vec![]);
@@ -176,7 +178,13 @@ fn read(name: &str) -> Nist {
         if !t.starts_with('b') {
             break;
         }
-        let nums: Vec<f64> = t.split('=').nth(1).unwrap().split_whitespace().map(|v| v.parse().unwrap()).collect();
+        let nums: Vec<f64> = t
+            .split('=')
+            .nth(1)
+            .unwrap()
+            .split_whitespace()
+            .map(|v| v.parse().unwrap())
+            .collect();
         s1.push(nums[0]);
         s2.push(nums[1]);
         cert.push(nums[2]);
@@ -197,7 +205,14 @@ fn read(name: &str) -> Nist {
         ys.push(if name == "Nelson" { v[0].ln() } else { v[0] });
         xs.push(v[1..].to_vec());
     }
-    Nist { name: name.into(), xs, ys, starts: [s1, s2], certified: cert, rss }
+    Nist {
+        name: name.into(),
+        xs,
+        ys,
+        starts: [s1, s2],
+        certified: cert,
+        rss,
+    }
 }
 
 impl Problem for Nist {
@@ -227,29 +242,54 @@ fn lre(est: f64, cert: f64) -> f64 {
 }
 
 const PROBLEMS: [&str; 27] = [
-    "Misra1a", "Chwirut2", "Chwirut1", "Lanczos3", "Gauss1", "Gauss2", "DanWood", "Misra1b", "Kirby2", "Hahn1",
-    "Nelson", "MGH17", "Lanczos1", "Lanczos2", "Gauss3", "Misra1c", "Misra1d", "Roszman1", "ENSO", "MGH09",
-    "Thurber", "BoxBOD", "Rat42", "MGH10", "Eckerle4", "Rat43", "Bennett5",
+    "Misra1a", "Chwirut2", "Chwirut1", "Lanczos3", "Gauss1", "Gauss2", "DanWood", "Misra1b",
+    "Kirby2", "Hahn1", "Nelson", "MGH17", "Lanczos1", "Lanczos2", "Gauss3", "Misra1c", "Misra1d",
+    "Roszman1", "ENSO", "MGH09", "Thurber", "BoxBOD", "Rat42", "MGH10", "Eckerle4", "Rat43",
+    "Bennett5",
 ];
 
 #[test]
 fn nist_strd_all_problems_both_starts() {
-    let limits = Limits { max_iter: 20_000, max_eval: 100_000, ftol: 1e-16, xtol: 1e-16, gtol: 1e-15 };
+    let limits = Limits {
+        max_iter: 20_000,
+        max_eval: 100_000,
+        ftol: 1e-16,
+        xtol: 1e-16,
+        gtol: 1e-15,
+    };
     let mut worst: f64 = 11.0;
     let mut failures = Vec::new();
-    println!("{:<10} {:>5} {:>8} {:>8} {:>7} {:>7}  termination", "problem", "start", "LRE(b)", "LRE(RSS)", "iter", "evals");
+    println!(
+        "{:<10} {:>5} {:>8} {:>8} {:>7} {:>7}  termination",
+        "problem", "start", "LRE(b)", "LRE(RSS)", "iter", "evals"
+    );
     for name in PROBLEMS {
         let p = read(name);
         for (s, start) in p.starts.iter().enumerate() {
             let sol = lsq::levenberg_marquardt(&p, start, Robust::None, &limits);
-            let lre_b = sol.x.iter().zip(&p.certified).map(|(e, c)| lre(*e, *c)).fold(11.0, f64::min);
+            let lre_b = sol
+                .x
+                .iter()
+                .zip(&p.certified)
+                .map(|(e, c)| lre(*e, *c))
+                .fold(11.0, f64::min);
             let lre_rss = lre(2.0 * sol.cost, p.rss);
             println!(
                 "{:<10} {:>5} {:>8.2} {:>8.2} {:>7} {:>7}  {}",
-                name, s + 1, lre_b, lre_rss, sol.iterations, sol.evaluations, sol.termination
+                name,
+                s + 1,
+                lre_b,
+                lre_rss,
+                sol.iterations,
+                sol.evaluations,
+                sol.termination
             );
             // Lanczos1's certified RSS (1.4e-25) is at the level of rounding: compare parameters only.
-            let score = if name == "Lanczos1" { lre_b } else { lre_b.min(lre_rss) };
+            let score = if name == "Lanczos1" {
+                lre_b
+            } else {
+                lre_b.min(lre_rss)
+            };
             worst = worst.min(score);
             if score < 4.0 {
                 failures.push(format!("{name} start {}: LRE {score:.2}", s + 1));
@@ -257,5 +297,8 @@ fn nist_strd_all_problems_both_starts() {
         }
     }
     println!("worst LRE over all 54 runs: {worst:.2}");
-    assert!(failures.is_empty(), "fewer than 4 correct digits: {failures:?}");
+    assert!(
+        failures.is_empty(),
+        "fewer than 4 correct digits: {failures:?}"
+    );
 }

@@ -572,8 +572,8 @@ fn fit_group(chans: Vec<ChannelRows>, opts: &FitOptions) -> Result<FitResult, Fi
     for k in 0..nfree {
         let name = &var_names[k];
         let base = name.split('_').next().unwrap_or(name);
-        let nonlinear = matches!(base, "n" | "c1" | "c2" | "c3");
-        let range = if opts.profile && nonlinear {
+        let _ = base;
+        let range = if opts.profile {
             profile_range(&prof, &sol.x, k, opts)
         } else {
             None
@@ -582,7 +582,8 @@ fn fit_group(chans: Vec<ChannelRows>, opts: &FitOptions) -> Result<FitResult, Fi
         let at_bound = full.transforms[k] != Transform::Square
             && ((sol.x[k] - lo).abs() < 1e-6 || (sol.x[k] - hi).abs() < 1e-6);
         let rel = se[k] / theta[k].abs().max(1e-300);
-        let wide = range.is_some_and(|(a, b)| !(b / a <= 1.5));
+        // Weak: the 1 % range spans more than a factor 1.5, or reaches a bound.
+        let wide = range.is_some_and(|(a, b)| !(b / a <= 1.5) || a == f64::NEG_INFINITY);
         if let Some((a, b)) = range {
             ranges.push((name.clone(), a, b));
         }
@@ -935,18 +936,19 @@ fn statistics(
 
 /// Human-readable form of a profiled range (∞ upper bound = open).
 pub fn describe_range(name: &str, (lo, hi): (f64, f64)) -> String {
-    if hi.is_infinite() {
-        format!("{name} ≥ {lo:.4} fits within 1 % of the minimum cost")
-    } else {
-        format!("{name} in [{lo:.4}, {hi:.4}] fits within 1 % of the minimum cost")
-    }
+    let what = match (lo == f64::NEG_INFINITY, hi == f64::INFINITY) {
+        (true, true) => format!("any {name}"),
+        (true, false) => format!("{name} ≤ {hi:.4}"),
+        (false, true) => format!("{name} ≥ {lo:.4}"),
+        (false, false) => format!("{name} in [{lo:.4}, {hi:.4}]"),
+    };
+    format!("{what} fits within 1 % of the minimum cost")
 }
 
 /// Profile a free variable on problem `p`: hold it at grid values, refit the rest from the
 /// optimum `x`, and return the range of values whose cost is within 1 % of the minimum. The
 /// bounds are the nearest grid values that do *not* fit, so the range contains every value
-/// that does; an upper bound past the grid's end is ∞ (the lower end of the grid is the
-/// parameter's own bound).
+/// that does; an end that reaches the parameter's own bound is ∓∞ (open).
 fn profile_range(p: &BrdfProblem, x: &[f64], k: usize, opts: &FitOptions) -> Option<(f64, f64)> {
     let t = p.transforms[k];
     let (ulo, uhi) = t.bounds();
@@ -1008,7 +1010,7 @@ fn profile_range(p: &BrdfProblem, x: &[f64], k: usize, opts: &FitOptions) -> Opt
         Some(b)
     };
     let (lo, hi) = rayon::join(|| side(-1.0), || side(1.0));
-    let lo = lo.map_or(t.apply(ulo).0, |u| t.apply(u).0);
+    let lo = lo.map_or(f64::NEG_INFINITY, |u| t.apply(u).0);
     let hi = hi.map_or(f64::INFINITY, |u| t.apply(u).0);
     Some((lo, hi))
 }
