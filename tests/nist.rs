@@ -1,4 +1,5 @@
 //! The generic least-squares core on the NIST StRD nonlinear regression problems (all 27, both
+#![allow(clippy::needless_range_loop)]
 //! starts), scored by LRE = −log10(|estimate − certified| / |certified|) against the certified
 //! values. Jacobians are exact (forward-mode dual numbers), not finite differences.
 
