@@ -1,7 +1,8 @@
 //! The generic least-squares core on the NIST StRD nonlinear regression problems (all 27, both
-#![allow(clippy::needless_range_loop)]
 //! starts), scored by LRE = −log10(|estimate − certified| / |certified|) against the certified
 //! values. Jacobians are exact (forward-mode dual numbers), not finite differences.
+
+#![allow(clippy::needless_range_loop)]
 
 use brdfit::fit::lsq::{self, Limits, Problem, Robust};
 use std::ops::{Add, Div, Mul, Neg, Sub};
