@@ -46,6 +46,9 @@ pub struct Geometry {
     pub eh: f64,
     /// R·E with R = 2(N·L)N − L, Phong's mirror-direction cosine.
     pub re: f64,
+    /// G/(N·E), Blinn's masking over the viewing cosine in his division-safe form
+    /// ([`g_over_ne`]), cached because it does not depend on any model parameter.
+    pub g_ne: f64,
 }
 
 impl Geometry {
@@ -59,13 +62,16 @@ impl Geometry {
         } else {
             (0.0, 0.0)
         };
-        Geometry {
+        let mut g = Geometry {
             nl,
             ne,
             nh: nh.clamp(-1.0, 1.0),
             eh: eh.min(1.0),
             re: 2.0 * nl * ne - le,
-        }
+            g_ne: 0.0,
+        };
+        g.g_ne = g_over_ne(&g);
+        g
     }
 
     /// Geometry from unit vectors: normal `n`, light `l` and eye `e`.
@@ -75,9 +81,10 @@ impl Geometry {
 
     /// Geometry for incidence (θi, φi) and view (θo, φo), in radians.
     pub fn from_angles(theta_i: f64, phi_i: f64, theta_o: f64, phi_o: f64) -> Self {
-        let l = direction(theta_i, phi_i);
-        let e = direction(theta_o, phi_o);
-        Self::from_cosines(l[2], e[2], dot(l, e))
+        // L·E = sinθi sinθo cos(φo − φi) + cosθi cosθo: three trigonometric calls.
+        let (si, ci) = theta_i.sin_cos();
+        let (so, co) = theta_o.sin_cos();
+        Self::from_cosines(ci, co, si * so * (phi_o - phi_i).cos() + ci * co)
     }
 
     /// True where the BRDF is defined: light and eye both above the surface.
@@ -97,6 +104,7 @@ pub fn fresnel(n: f64, c: f64) -> f64 {
 }
 
 /// Fresnel reflectance and its derivative with respect to `n` (see [`fresnel`]).
+#[inline]
 pub fn fresnel_dn(n: f64, c: f64) -> (f64, f64) {
     let c = c.clamp(0.0, 1.0);
     let g = (n * n + c * c - 1.0).max(0.0).sqrt();
@@ -105,14 +113,18 @@ pub fn fresnel_dn(n: f64, c: f64) -> (f64, f64) {
         return (1.0, 0.0);
     }
     let gm = g - c;
-    let a = (gm / gp) * (gm / gp);
+    let igp = 1.0 / gp;
+    let q = gm * igp;
+    let a = q * q;
     let u = c * gp - 1.0;
     let v = c * gm + 1.0;
-    let b = (u / v) * (u / v);
+    let iv = 1.0 / v;
+    let t = u * iv;
+    let b = t * t;
     let f = 0.5 * a * (1.0 + b);
     // dA/dg = 4c(g−c)/(g+c)³, dB/dg = 4c(1−c²)u/v³, dg/dn = n/g.
-    let da = 4.0 * c * gm / (gp * gp * gp);
-    let db = 4.0 * c * (1.0 - c * c) * u / (v * v * v);
+    let da = 4.0 * c * q * igp * igp;
+    let db = 4.0 * c * (1.0 - c * c) * t * iv * iv;
     let dn = if g > 0.0 {
         0.5 * (da * (1.0 + b) + a * db) * n / g
     } else {
@@ -226,6 +238,7 @@ impl Distribution {
     }
 
     /// D and dD/dc at cos α = `nh`.
+    #[inline]
     pub fn eval_dc(self, nh: f64, c: f64) -> (f64, f64) {
         let nh = nh.clamp(0.0, 1.0);
         match self {
@@ -544,6 +557,7 @@ impl Model {
     }
 
     /// The BRDF f_r = i / (π N·L) in 1/sr.
+    #[inline]
     pub fn brdf(&self, g: &Geometry) -> f64 {
         let mut scratch = [0.0; 4];
         self.brdf_grad(g, &mut scratch)
@@ -551,6 +565,7 @@ impl Model {
 
     /// The BRDF and its gradient with respect to each parameter (written to `grad`, which must
     /// hold at least as many entries as the model has parameters).
+    #[inline]
     pub fn brdf_grad(&self, g: &Geometry, grad: &mut [f64]) -> f64 {
         let k = self.param_names().len();
         grad[..k].iter_mut().for_each(|x| *x = 0.0);
@@ -588,7 +603,7 @@ impl Model {
                 let (n, c, ps, pd) = (p[0], p[1], p[2], p[3]);
                 let (d, dd) = self.dist.eval_dc(g.nh, c);
                 let (f, df) = fresnel_dn(n, g.eh);
-                let w = g_over_ne(g) * FRAC_1_PI / g.nl;
+                let w = g.g_ne * FRAC_1_PI / g.nl;
                 grad[0] = ps * d * df * w;
                 grad[1] = ps * dd * f * w;
                 grad[2] = d * f * w;

@@ -154,7 +154,7 @@ fn small_problem(loss: Loss) -> BrdfProblem {
     }
     BrdfProblem {
         template: Model::blinn_mgo(),
-        rows,
+        rows: rows.into(),
         starts,
         layout: vec![
             [Slot::Free(0), Slot::Free(1), Slot::Free(2), Slot::Free(3)],

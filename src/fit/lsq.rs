@@ -36,6 +36,40 @@ pub trait Problem: Sync {
         let mut row = vec![0.0; self.dim()];
         self.residual_grad(prep, i, &mut row)
     }
+    /// Add residuals `range` to `acc`: Σ ρ(r) to the cost, JᵀWJ to the upper triangle of
+    /// `acc.jtj` and JᵀWr to `acc.jtr`, with IRLS weights W = ρ'(r)/r. The default goes row
+    /// by row through [`Problem::residual_grad`]; a problem may override it with a kernel.
+    fn accumulate(
+        &self,
+        prep: &Self::Prepared,
+        range: std::ops::Range<usize>,
+        robust: Robust,
+        acc: &mut Normal,
+    ) {
+        let n = self.dim();
+        let mut row = vec![0.0; n];
+        for i in range {
+            let r = self.residual_grad(prep, i, &mut row);
+            acc.cost += robust.rho(r);
+            let w = robust.weight(r);
+            for a in 0..n {
+                let wa = w * row[a];
+                acc.jtr[a] += wa * r;
+                for b in a..n {
+                    acc.jtj[a * n + b] += wa * row[b];
+                }
+            }
+        }
+    }
+    /// Σ ρ(r) over residuals `range` (defaults to [`Problem::residual`] row by row).
+    fn cost_range(
+        &self,
+        prep: &Self::Prepared,
+        range: std::ops::Range<usize>,
+        robust: Robust,
+    ) -> f64 {
+        range.map(|i| robust.rho(self.residual(prep, i))).sum()
+    }
     /// Lower and upper bound of each parameter (defaults to unbounded).
     fn bounds(&self) -> Vec<(f64, f64)> {
         vec![(f64::NEG_INFINITY, f64::INFINITY); self.dim()]
@@ -141,7 +175,7 @@ impl Default for Limits {
         Limits {
             max_iter: 500,
             max_eval: 2000,
-            ftol: 1e-15,
+            ftol: 1e-12,
             xtol: 1e-15,
             gtol: 1e-14,
         }
@@ -163,6 +197,8 @@ pub struct Solution {
     pub termination: String,
     /// True when a convergence test (not a limit or failure) stopped it.
     pub converged: bool,
+    /// Normal equations at `x`, where the method computed them (LM and Gauss–Newton).
+    pub normal: Option<Normal>,
 }
 
 /// Normal equations at a point: cost, JᵀWJ (row-major p×p) and JᵀWr.
@@ -184,13 +220,7 @@ pub fn cost<P: Problem>(p: &P, x: &[f64], robust: Robust) -> Option<f64> {
     let m = p.n_residuals();
     let parts: Vec<f64> = (0..m.div_ceil(CHUNK))
         .into_par_iter()
-        .map(|c| {
-            let mut s = 0.0;
-            for i in c * CHUNK..((c + 1) * CHUNK).min(m) {
-                s += robust.rho(p.residual(&prep, i));
-            }
-            s
-        })
+        .map(|c| p.cost_range(&prep, c * CHUNK..((c + 1) * CHUNK).min(m), robust))
         .collect();
     let s: f64 = parts.iter().sum();
     s.is_finite().then_some(s)
@@ -209,19 +239,7 @@ pub fn normal_equations<P: Problem>(p: &P, x: &[f64], robust: Robust) -> Option<
                 jtj: vec![0.0; n * n],
                 jtr: vec![0.0; n],
             };
-            let mut row = vec![0.0; n];
-            for i in c * CHUNK..((c + 1) * CHUNK).min(m) {
-                let r = p.residual_grad(&prep, i, &mut row);
-                acc.cost += robust.rho(r);
-                let w = robust.weight(r);
-                for a in 0..n {
-                    let wa = w * row[a];
-                    acc.jtr[a] += wa * r;
-                    for b in a..n {
-                        acc.jtj[a * n + b] += wa * row[b];
-                    }
-                }
-            }
+            p.accumulate(&prep, c * CHUNK..((c + 1) * CHUNK).min(m), robust, &mut acc);
             acc
         })
         .collect();
@@ -308,6 +326,7 @@ fn failed(x: Vec<f64>, why: &str, evaluations: usize) -> Solution {
         evaluations,
         termination: why.to_string(),
         converged: false,
+        normal: None,
     }
 }
 
@@ -393,8 +412,6 @@ pub fn levenberg_marquardt<P: Problem>(
             converged = true;
             break;
         }
-        evals += 1;
-        let cn = cost(p, &xn, robust).unwrap_or(f64::INFINITY);
         // Predicted reduction of the linear model for the projected step.
         let mut pred = 0.0;
         for a in 0..dim {
@@ -404,19 +421,23 @@ pub fn levenberg_marquardt<P: Problem>(
             }
             pred -= step[a] * (ne.jtr[a] + 0.5 * jh);
         }
+        if pred >= 0.0 && pred <= limits.ftol * ne.cost && mu < 1.0 {
+            // Even the full step would change the cost by less than ftol: converged without
+            // spending another pass over the data.
+            termination = "predicted reduction below tolerance".into();
+            converged = true;
+            break;
+        }
+        // One pass gives the cost and, if the step is accepted, the next normal equations.
+        evals += 1;
+        let trial = normal_equations(p, &xn, robust);
+        let cn = trial.as_ref().map_or(f64::INFINITY, |t| t.cost);
         let actual = ne.cost - cn;
         let rho = if pred > 0.0 { actual / pred } else { -1.0 };
         if cn.is_finite() && actual > 0.0 && rho > 0.0 {
             let small = actual <= limits.ftol * ne.cost;
             x = xn;
-            evals += 1;
-            match normal_equations(p, &x, robust) {
-                Some(n2) => ne = n2,
-                None => {
-                    termination = "non-finite Jacobian at an accepted point".into();
-                    break;
-                }
-            }
+            ne = trial.expect("finite trial");
             mu *= (1.0f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
             nu = 2.0;
             if small {
@@ -441,6 +462,7 @@ pub fn levenberg_marquardt<P: Problem>(
         evaluations: evals,
         termination,
         converged,
+        normal: Some(ne),
     }
 }
 
@@ -528,6 +550,7 @@ pub fn gauss_newton<P: Problem>(p: &P, x0: &[f64], robust: Robust, limits: &Limi
         evaluations: evals,
         termination,
         converged,
+        normal: Some(ne),
     }
 }
 
@@ -627,6 +650,7 @@ pub fn nelder_mead<P: Problem>(p: &P, x0: &[f64], robust: Robust, limits: &Limit
         evaluations: evals,
         termination,
         converged,
+        normal: None,
     }
 }
 

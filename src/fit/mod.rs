@@ -300,44 +300,41 @@ impl FitResult {
 struct ChannelRows {
     name: String,
     rows: Vec<Row>,
-    theta_i: Vec<f64>,
+    /// θi when every row has the same incidence angle.
+    one_incidence: Option<f64>,
     all_zero: bool,
 }
 
 fn channel_rows(ds: &Dataset, c: usize, opts: &FitOptions) -> ChannelRows {
-    let f = ds.brdf_values(c);
+    use rayon::prelude::*;
+    let q = ds.quantity;
+    let vals = &ds.channels[c].values;
     let max = opts.max_theta_deg.map(f64::to_radians);
-    let mut rows = Vec::with_capacity(ds.len());
-    let mut theta_i = Vec::new();
-    let mut all_zero = true;
-    for k in 0..ds.len() {
-        let v = f[k];
-        if !v.is_finite() {
-            continue;
-        }
-        let a = ds.angles(k);
-        if let Some(m) = max
-            && (a[0] > m || a[2] > m)
-        {
-            continue;
-        }
-        let w = ds.weights.as_ref().map_or(1.0, |w| w[k]);
-        if w <= 0.0 {
-            continue;
-        }
-        let g = crate::model::Geometry::from_angles(a[0], a[1], a[2], a[3]);
-        if !g.visible() {
-            continue;
-        }
-        all_zero &= v == 0.0;
-        rows.push(Row {
-            g,
-            cos_i: g.nl,
-            target: opts.loss.target(v, g.nl),
-            sw: w.sqrt(),
-        });
-        theta_i.push(a[0]);
-    }
+    // Geometry of every sample in parallel; the order of the result is the sample order.
+    let rows: Vec<Row> = (0..ds.len())
+        .into_par_iter()
+        .with_min_len(4096)
+        .filter_map(|k| {
+            let a = ds.angles(k);
+            let v = vals[k] * q.to_brdf_factor(a[0].cos());
+            if !v.is_finite() || max.is_some_and(|m| a[0] > m || a[2] > m) {
+                return None;
+            }
+            let w = ds.weights.as_ref().map_or(1.0, |w| w[k]);
+            let g = crate::model::Geometry::from_angles(a[0], a[1], a[2], a[3]);
+            (w > 0.0 && g.visible()).then(|| Row {
+                g,
+                cos_i: g.nl,
+                target: opts.loss.target(v, g.nl),
+                sw: w.sqrt(),
+            })
+        })
+        .collect();
+    let all_zero = rows
+        .iter()
+        .all(|r| opts.loss.target(0.0, r.cos_i) == r.target);
+    let first = rows.first().map(|r| r.cos_i);
+    let one_incidence = first.is_some_and(|c0| rows.iter().all(|r| (r.cos_i - c0).abs() < 1e-12));
     let name = ds.channels[c].name.clone();
     ChannelRows {
         name: if name.is_empty() {
@@ -346,7 +343,7 @@ fn channel_rows(ds: &Dataset, c: usize, opts: &FitOptions) -> ChannelRows {
             name
         },
         rows,
-        theta_i,
+        one_incidence: one_incidence.then(|| first.unwrap_or(1.0).acos()),
         all_zero,
     }
 }
@@ -377,16 +374,23 @@ pub fn fit(ds: &Dataset, opts: &FitOptions) -> Result<Vec<FitResult>, FitError> 
             ));
         }
     }
-    let chans: Vec<ChannelRows> = (0..ds.channels.len())
-        .map(|c| channel_rows(ds, c, opts))
-        .collect();
-    if opts.shared.is_empty() || chans.len() == 1 {
-        chans
-            .into_iter()
-            .map(|c| fit_group(vec![c], opts))
+    // Each channel's geometry pass is timed with its fit.
+    let timed = |c: usize| {
+        let t = Instant::now();
+        let rows = channel_rows(ds, c, opts);
+        (rows, t.elapsed().as_secs_f64())
+    };
+    if opts.shared.is_empty() || ds.channels.len() == 1 {
+        (0..ds.channels.len())
+            .map(|c| {
+                let (rows, t) = timed(c);
+                fit_group(vec![rows], opts, t)
+            })
             .collect()
     } else {
-        Ok(vec![fit_group(chans, opts)?])
+        let (chans, times): (Vec<ChannelRows>, Vec<f64>) =
+            (0..ds.channels.len()).map(timed).unzip();
+        Ok(vec![fit_group(chans, opts, times.iter().sum())?])
     }
 }
 
@@ -397,7 +401,11 @@ struct Entry {
     slot: Slot,
 }
 
-fn fit_group(chans: Vec<ChannelRows>, opts: &FitOptions) -> Result<FitResult, FitError> {
+fn fit_group(
+    chans: Vec<ChannelRows>,
+    opts: &FitOptions,
+    geometry_seconds: f64,
+) -> Result<FitResult, FitError> {
     let t0 = Instant::now();
     let kind = opts.kind;
     let names = kind.param_names(opts.dist);
@@ -471,11 +479,11 @@ fn fit_group(chans: Vec<ChannelRows>, opts: &FitOptions) -> Result<FitResult, Fi
         && names[0] == "n"
         && matches!(layout[0][0], Slot::Free(_));
     if kind == ModelKind::TorranceSparrow && n_free {
-        let first = chans.iter().find_map(|c| c.theta_i.first().copied());
-        if let Some(t) = first
+        let t = chans[0].one_incidence;
+        if let Some(t) = t
             && chans
                 .iter()
-                .all(|c| c.theta_i.iter().all(|x| (x - t).abs() < 1e-9))
+                .all(|c| c.one_incidence.is_some_and(|x| (x - t).abs() < 1e-9))
         {
             return Err(fit_error(
                 format!(
@@ -486,10 +494,14 @@ fn fit_group(chans: Vec<ChannelRows>, opts: &FitOptions) -> Result<FitResult, Fi
             ));
         }
     }
-    let mut rows = Vec::with_capacity(m);
     let mut starts = vec![0];
-    for c in &chans {
-        rows.extend_from_slice(&c.rows);
+    let mut rows = Vec::new();
+    for c in chans {
+        if rows.is_empty() {
+            rows = c.rows;
+        } else {
+            rows.extend_from_slice(&c.rows);
+        }
         starts.push(rows.len());
     }
     let mut template = Model::new(kind, opts.dist, &[1.5, 0.5, 0.5, 0.5]).unwrap_or_else(|_| {
@@ -498,15 +510,16 @@ fn fit_group(chans: Vec<ChannelRows>, opts: &FitOptions) -> Result<FitResult, Fi
     template.fast_pow = opts.fast_pow;
     let full = BrdfProblem {
         template,
-        rows,
+        rows: std::sync::Arc::new(rows),
         starts,
         layout,
         transforms,
         loss: opts.loss,
     };
-    drop(chans);
-    let sub = if full.rows.len() > 20_000 * full.layout.len() {
-        Some(full.subsample(20_000))
+    // Candidates are refined on a subsample of at most 2,000 rows per channel; the best one
+    // is then polished on every row (a few passes, since it starts next to the optimum).
+    let sub = if full.rows.len() > 2_000 * full.layout.len() {
+        Some(full.subsample(2_000))
     } else {
         None
     };
@@ -523,8 +536,14 @@ fn fit_group(chans: Vec<ChannelRows>, opts: &FitOptions) -> Result<FitResult, Fi
     let mut iterations = 0;
     let mut evaluations = 0;
     let mut best: Option<Solution> = None;
-    for x0 in &candidates {
-        let s = lsq::solve(work, x0, opts.method, Robust::None, &opts.limits);
+    let sols: Vec<Solution> = {
+        use rayon::prelude::*;
+        candidates
+            .par_iter()
+            .map(|x0| lsq::solve(work, x0, opts.method, Robust::None, &opts.limits))
+            .collect()
+    };
+    for s in sols {
         iterations += s.iterations;
         evaluations += s.evaluations;
         if best.as_ref().is_none_or(|b| s.cost < b.cost) {
@@ -555,7 +574,11 @@ fn fit_group(chans: Vec<ChannelRows>, opts: &FitOptions) -> Result<FitResult, Fi
         ));
     }
     // Statistics in natural parameters.
-    let cost = lsq::cost(&full, &sol.x, Robust::None).unwrap_or(f64::INFINITY);
+    let cost = if robust == Robust::None {
+        sol.cost
+    } else {
+        lsq::cost(&full, &sol.x, Robust::None).unwrap_or(f64::INFINITY)
+    };
     let theta: Vec<f64> = (0..nfree)
         .map(|k| full.transforms[k].apply(sol.x[k]).0)
         .collect();
@@ -566,24 +589,37 @@ fn fit_group(chans: Vec<ChannelRows>, opts: &FitOptions) -> Result<FitResult, Fi
             sol.termination
         ));
     }
-    let (se, corr, singular) = statistics(&full, &theta, cost, m);
-    let prof = full.subsample(2500);
+    let (se, corr, singular) = statistics(&full, &sol, &theta, cost, m);
+    let prof = full.subsample(1000);
     let mut ranges = Vec::new();
     for k in 0..nfree {
         let name = &var_names[k];
-        let base = name.split('_').next().unwrap_or(name);
-        let _ = base;
-        let range = if opts.profile {
-            profile_range(&prof, &sol.x, k, opts)
-        } else {
+        // The quadratic model of the cost gives the 1 % range in solver space,
+        // Δu = (σ_θ/|dθ/du|)·√(0.01 (m − p)); where it is narrow (a factor ≤ 1.2, inside the
+        // bounds) it stands, otherwise the cost is profiled for real.
+        let t = full.transforms[k];
+        let (ulo, uhi) = t.bounds();
+        let du = se[k] / t.apply(sol.x[k]).1.abs().max(1e-300)
+            * (0.01 * (m.saturating_sub(nfree)) as f64).sqrt();
+        let quadratic = (du.is_finite() && sol.x[k] - du > ulo && sol.x[k] + du < uhi)
+            .then(|| {
+                let (a, b) = (t.apply(sol.x[k] - du).0, t.apply(sol.x[k] + du).0);
+                (a.min(b), a.max(b))
+            })
+            .filter(|(a, b)| *a > 0.0 && b / a <= 1.2);
+        let range = if !opts.profile {
             None
+        } else if quadratic.is_some() {
+            quadratic
+        } else {
+            profile_range(&prof, &sol.x, k, opts)
         };
         let (lo, hi) = full.transforms[k].bounds();
         let at_bound = full.transforms[k] != Transform::Square
             && ((sol.x[k] - lo).abs() < 1e-6 || (sol.x[k] - hi).abs() < 1e-6);
         let rel = se[k] / theta[k].abs().max(1e-300);
-        // Weak: the 1 % range spans more than a factor 1.5, or reaches a bound.
-        let wide = range.is_some_and(|(a, b)| !(b / a <= 1.5) || a == f64::NEG_INFINITY);
+        // Weak: the 1 % range spans more than a factor 1.25, or reaches a bound.
+        let wide = range.is_some_and(|(a, b)| !(b / a <= 1.25) || a == f64::NEG_INFINITY);
         if let Some((a, b)) = range {
             ranges.push((name.clone(), a, b));
         }
@@ -667,7 +703,7 @@ fn fit_group(chans: Vec<ChannelRows>, opts: &FitOptions) -> Result<FitResult, Fi
         iterations,
         evaluations,
         termination: sol.termination,
-        seconds: t0.elapsed().as_secs_f64(),
+        seconds: geometry_seconds + t0.elapsed().as_secs_f64(),
         warnings,
         bic: loglike_term + kf * mf.ln(),
         aic: loglike_term + 2.0 * kf,
@@ -718,7 +754,7 @@ fn start_vector(p: &BrdfProblem, var_names: &[String], start: &[(String, f64)]) 
 /// linearise the log loss), clipped to ≥ 0; the best three grid points are returned as
 /// solver variables.
 fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> Vec<Vec<f64>> {
-    let p = full.subsample(2500);
+    let p = full.subsample(500);
     let nfree = p.transforms.len();
     let kind = opts.kind;
     let names = kind.param_names(opts.dist);
@@ -872,13 +908,30 @@ fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> V
 /// parameters (σ̂² = 2 cost/(m − p)).
 fn statistics(
     full: &BrdfProblem,
+    sol: &Solution,
     theta: &[f64],
     cost: f64,
     m: usize,
 ) -> (Vec<f64>, Vec<Vec<f64>>, Vec<bool>) {
     let p = theta.len();
-    let nat = full.natural();
-    let Some(ne) = lsq::normal_equations(&nat, theta, Robust::None) else {
+    // JᵀJ in natural parameters: from the solver's last pass by the chain rule
+    // (J_θ = J_u / (dθ/du)) when every dθ/du is non-zero, else from one more pass.
+    let chain: Vec<f64> = (0..p)
+        .map(|k| full.transforms[k].apply(sol.x[k]).1)
+        .collect();
+    let reuse = sol
+        .normal
+        .as_ref()
+        .filter(|_| chain.iter().all(|d| d.abs() > 1e-12))
+        .map(|n| lsq::Normal {
+            cost: n.cost,
+            jtj: (0..p * p)
+                .map(|i| n.jtj[i] / (chain[i / p] * chain[i % p]))
+                .collect(),
+            jtr: (0..p).map(|i| n.jtr[i] / chain[i]).collect(),
+        });
+    let Some(ne) = reuse.or_else(|| lsq::normal_equations(&full.natural(), theta, Robust::None))
+    else {
         return (
             vec![f64::INFINITY; p],
             vec![vec![f64::NAN; p]; p],
@@ -952,8 +1005,10 @@ pub fn describe_range(name: &str, (lo, hi): (f64, f64)) -> String {
 fn profile_range(p: &BrdfProblem, x: &[f64], k: usize, opts: &FitOptions) -> Option<(f64, f64)> {
     let t = p.transforms[k];
     let (ulo, uhi) = t.bounds();
+    // The 1 % test needs the profiled cost to a few digits only.
     let limits = Limits {
-        max_iter: 60,
+        max_iter: 40,
+        ftol: 1e-8,
         ..opts.limits
     };
     // Cost of the problem with variable k held at solver value u, the rest refitted from x.
@@ -999,7 +1054,7 @@ fn profile_range(p: &BrdfProblem, x: &[f64], k: usize, opts: &FitOptions) -> Opt
             step *= 2.0;
         };
         let (mut a, mut b) = (inside, outside);
-        for _ in 0..5 {
+        for _ in 0..4 {
             let mid = 0.5 * (a + b);
             if held(mid) > limit {
                 b = mid;

@@ -1,7 +1,7 @@
 //! The BRDF fitting problem: per-sample geometry computed once, parameters transformed so
 //! their bounds hold by construction, residuals of the `log` or `linear` loss.
 
-use super::lsq::Problem;
+use super::lsq::{Normal, Problem, Robust};
 use crate::model::{Distribution, Geometry, Model, ModelKind, f0_from_n};
 
 /// Which residual the fit minimises (½ Σ r²).
@@ -155,8 +155,8 @@ pub struct Row {
 pub struct BrdfProblem {
     /// Model template (kind, distribution, fast power); its parameter values are ignored.
     pub template: Model,
-    /// Rows, channel after channel.
-    pub rows: Vec<Row>,
+    /// Rows, channel after channel (shared, so problems derived from this one are cheap).
+    pub rows: std::sync::Arc<Vec<Row>>,
     /// Start row of each channel (plus the total at the end).
     pub starts: Vec<usize>,
     /// Per channel, where each model parameter comes from.
@@ -214,7 +214,7 @@ impl BrdfProblem {
             starts.push(rows.len());
         }
         BrdfProblem {
-            rows,
+            rows: std::sync::Arc::new(rows),
             starts,
             ..self.clone()
         }
@@ -306,6 +306,109 @@ impl Problem for BrdfProblem {
     fn bounds(&self) -> Vec<(f64, f64)> {
         self.transforms.iter().map(|t| t.bounds()).collect()
     }
+
+    fn accumulate(
+        &self,
+        prep: &Prepared,
+        range: std::ops::Range<usize>,
+        robust: Robust,
+        acc: &mut Normal,
+    ) {
+        let n = self.dim();
+        let np = self.n_model_params();
+        // Channel by channel: accumulate in model-parameter space (at most 4×4), then map
+        // once into the free variables with the chain factors.
+        for c in 0..self.layout.len() {
+            let lo = range.start.max(self.starts[c]);
+            let hi = range.end.min(self.starts[c + 1]);
+            if lo >= hi {
+                continue;
+            }
+            let (model, map) = &prep.chans[c];
+            let mut g = [[0.0f64; 4]; 4];
+            let mut gr = [0.0f64; 4];
+            acc.cost += match self.loss {
+                Loss::Log => kernel::<true>(&self.rows[lo..hi], model, robust, &mut g, &mut gr),
+                Loss::Linear => kernel::<false>(&self.rows[lo..hi], model, robust, &mut g, &mut gr),
+            };
+            for j in 0..np {
+                let (kj, cj) = map[j];
+                if kj == usize::MAX {
+                    continue;
+                }
+                acc.jtr[kj] += cj * gr[j];
+                for l in j..np {
+                    let (kl, cl) = map[l];
+                    if kl == usize::MAX {
+                        continue;
+                    }
+                    let (a, b) = (kj.min(kl), kj.max(kl));
+                    acc.jtj[a * n + b] += cj * cl * g[j][l];
+                }
+            }
+        }
+    }
+
+    fn cost_range(&self, prep: &Prepared, range: std::ops::Range<usize>, robust: Robust) -> f64 {
+        let mut s = 0.0;
+        for c in 0..self.layout.len() {
+            let lo = range.start.max(self.starts[c]);
+            let hi = range.end.min(self.starts[c + 1]);
+            if lo >= hi {
+                continue;
+            }
+            let model = &prep.chans[c].0;
+            for rw in &self.rows[lo..hi] {
+                let f = model.brdf(&rw.g);
+                let r = match self.loss {
+                    Loss::Log => (rw.cos_i * f).ln_1p() - rw.target,
+                    Loss::Linear => f - rw.target,
+                };
+                s += robust.rho(rw.sw * r);
+            }
+        }
+        s
+    }
+}
+
+/// The hot loop: residuals of one channel's rows with the model's parameter gradient,
+/// accumulated into the model-space normal equations `g` (upper triangle) and `gr`; returns
+/// Σ ρ(r). Free of allocation; the loss is a compile-time constant.
+#[inline(never)]
+fn kernel<const LOG: bool>(
+    rows: &[Row],
+    model: &Model,
+    robust: Robust,
+    g: &mut [[f64; 4]; 4],
+    gr: &mut [f64; 4],
+) -> f64 {
+    let mut cost = 0.0;
+    let mut grad = [0.0; 4];
+    for rw in rows {
+        let f = model.brdf_grad(&rw.g, &mut grad);
+        let (r, drdf) = if LOG {
+            let fm = rw.cos_i * f;
+            (fm.ln_1p() - rw.target, rw.cos_i / (1.0 + fm))
+        } else {
+            (f - rw.target, 1.0)
+        };
+        let r = rw.sw * r;
+        let s = rw.sw * drdf;
+        let j = [s * grad[0], s * grad[1], s * grad[2], s * grad[3]];
+        let (rho, w) = match robust {
+            Robust::None => (0.5 * r * r, 1.0),
+            _ => (robust.rho(r), robust.weight(r)),
+        };
+        cost += rho;
+        for a in 0..4 {
+            let wa = w * j[a];
+            gr[a] += wa * r;
+            for b in a..4 {
+                g[a][b] += wa * j[b];
+            }
+        }
+    }
+    cost
 }
 
 /// Grid of candidate values for a nonlinear parameter in the global initialisation.
@@ -320,7 +423,7 @@ pub fn init_grid(name: &str, dist: Distribution) -> Vec<f64> {
         .map(|&f0| crate::model::n_from_f0(f0))
         .collect(),
         "c3" => vec![
-            0.02, 0.04, 0.07, 0.1, 0.15, 0.2, 0.27, 0.35, 0.45, 0.55, 0.7, 0.85, 0.97,
+            0.01, 0.03, 0.06, 0.1, 0.15, 0.22, 0.3, 0.4, 0.55, 0.75, 0.95,
         ],
         // Blinn's c(β) for half-angles 1°…60°, so the grids of D1 and D2 match D3's.
         "c1" | "c2" => {

@@ -1,0 +1,37 @@
+//! Torrance–Sparrow fits of synthetic Blinn MgO data (hemisphere, 1 % noise, log loss) at
+//! 10k, 100k and 1M samples (the 1M fit also without the range profiling).
+//!
+//! Run: `cargo bench --bench fit`. The side-by-side comparison with scipy is
+//! `benches/compare_scipy.sh`.
+
+use brdfit::fit::{self, FitOptions};
+use brdfit::model::{Model, ModelKind};
+use brdfit::simulate::{Grid, simulate};
+use criterion::{Criterion, criterion_group, criterion_main};
+use std::time::Duration;
+
+fn bench(c: &mut Criterion) {
+    let mut g = c.benchmark_group("fit_ts_mgo_log");
+    g.sample_size(10).measurement_time(Duration::from_secs(8));
+    for n in [10_000usize, 100_000, 1_000_000] {
+        let ds = simulate(
+            &Model::blinn_mgo(),
+            &Grid::Hemisphere(n).directions(1),
+            0.01,
+            1,
+        );
+        let opts = FitOptions::new(ModelKind::TorranceSparrow);
+        g.bench_function(format!("{n}"), |b| b.iter(|| fit::fit(&ds, &opts).unwrap()));
+        if n == 1_000_000 {
+            let mut o = opts.clone();
+            o.profile = false;
+            g.bench_function(format!("{n}_no_profile"), |b| {
+                b.iter(|| fit::fit(&ds, &o).unwrap())
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
