@@ -316,7 +316,10 @@ fn channel_rows(ds: &Dataset, c: usize, opts: &FitOptions) -> ChannelRows {
         .with_min_len(4096)
         .filter_map(|k| {
             let a = ds.angles(k);
-            let v = vals[k] * q.to_brdf_factor(a[0].cos());
+            let v = match q {
+                crate::data::Quantity::Brdf => vals[k],
+                _ => vals[k] * q.to_brdf_factor(a[0].cos()),
+            };
             if !v.is_finite() || max.is_some_and(|m| a[0] > m || a[2] > m) {
                 return None;
             }
