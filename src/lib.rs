@@ -16,4 +16,5 @@ pub mod data;
 pub mod fit;
 pub mod model;
 pub mod output;
+pub mod plot;
 pub mod simulate;

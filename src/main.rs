@@ -70,6 +70,9 @@ enum Command {
         #[command(flatten)]
         load: LoadArgs,
     },
+    /// Plots: polar lobes (Blinn's Figures 5–6), residuals, θh×θd slices, albedo.
+    #[command(subcommand)]
+    Plot(PlotCommand),
     /// Convert between formats: any → brdfit CSV, CSV (or any) → MERL .binary.
     #[command(
         after_help = "Example:\n  brdfit convert data/cayman.astm --channel cie-y -o cayman.csv"
@@ -86,6 +89,294 @@ enum Command {
         #[command(flatten)]
         load: LoadArgs,
     },
+}
+
+#[derive(Subcommand, Debug)]
+enum PlotCommand {
+    /// Polar plot of the reflected intensity in the plane of incidence, models against data.
+    #[command(
+        after_help = "Example:\n  brdfit plot lobe --fit fit.json --data data/blinn-mgo.csv --theta-i 30,70 -o lobe"
+    )]
+    Lobe {
+        /// Fit JSON files whose models are drawn (repeat for several).
+        #[arg(long)]
+        fit: Vec<PathBuf>,
+        /// A model to draw from --model/--set instead of (or besides) fits.
+        #[arg(long)]
+        model: Option<String>,
+        /// Distribution of --model torrance-sparrow.
+        #[arg(long, default_value = "d3")]
+        distribution: String,
+        /// Parameters of --model, NAME=VALUE.
+        #[arg(long = "set", value_delimiter = ',')]
+        set: Vec<String>,
+        /// Measured data whose in-plane samples are overlaid.
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// Incidence angles in degrees, one panel each.
+        #[arg(long, value_delimiter = ',', default_value = "30,70")]
+        theta_i: Vec<f64>,
+        /// Radius: intensity (Blinn's i = π f_r cosθi) or brdf (f_r).
+        #[arg(long, default_value = "intensity")]
+        quantity: String,
+        /// Logarithmic radius (4 decades), for sharp measured peaks.
+        #[arg(long)]
+        log: bool,
+        /// Azimuth tolerance (degrees) for samples to count as in the plane of incidence.
+        #[arg(long, default_value_t = 1.0)]
+        tolerance: f64,
+        #[command(flatten)]
+        load: LoadArgs,
+        /// Output base name: writes BASE.svg and BASE.png.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Blinn's Figures 5 and 6: Phong against Torrance–Sparrow with equal β, at 30° and 70°.
+    #[command(after_help = "Example:\n  brdfit plot blinn-figures -o reports/figures")]
+    BlinnFigures {
+        /// Output directory (figure5.svg/png, figure6.svg/png).
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Residuals of a fit against θh, θd and θi, to show where a model fails.
+    #[command(
+        after_help = "Example:\n  brdfit plot residuals --fit fit.json data/blinn-mgo.csv -o reports/residuals"
+    )]
+    Residuals {
+        /// The fit JSON.
+        #[arg(long)]
+        fit: PathBuf,
+        /// The data it was fitted to.
+        data: PathBuf,
+        #[command(flatten)]
+        load: LoadArgs,
+        /// Output directory.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// θh × θd image of data and fit side by side (BRDF Explorer's image slice).
+    #[command(
+        after_help = "Example:\n  brdfit plot slice --fit fit.json data/merl-aluminium.csv --channel r -o slice"
+    )]
+    Slice {
+        /// The fit JSON.
+        #[arg(long)]
+        fit: PathBuf,
+        /// The data.
+        data: PathBuf,
+        #[command(flatten)]
+        load: LoadArgs,
+        /// Bins per axis.
+        #[arg(long, default_value_t = 45)]
+        bins: usize,
+        /// Output base name.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Directional albedo against θi by integration over the hemisphere (energy check).
+    #[command(after_help = "Example:\n  brdfit plot albedo --fit fit.json -o albedo")]
+    Albedo {
+        /// The fit JSON.
+        #[arg(long)]
+        fit: Option<PathBuf>,
+        #[command(flatten)]
+        model: OptModelArgs,
+        /// Output base name.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+}
+
+#[derive(Args, Debug, Clone)]
+struct OptModelArgs {
+    /// Model instead of a fit: lambert, phong, blinn-phong, torrance-sparrow.
+    #[arg(long)]
+    model: Option<String>,
+    /// Distribution of torrance-sparrow.
+    #[arg(long, default_value = "d3")]
+    distribution: String,
+    /// Parameters NAME=VALUE.
+    #[arg(long = "set", value_delimiter = ',')]
+    set: Vec<String>,
+}
+
+impl OptModelArgs {
+    fn build(&self) -> Result<Option<Model>> {
+        match &self.model {
+            None => Ok(None),
+            Some(m) => ModelArgs {
+                model: m.clone(),
+                distribution: self.distribution.clone(),
+                set: self.set.clone(),
+                fast_pow: None,
+            }
+            .build()
+            .map(Some),
+        }
+    }
+}
+
+/// Read a fit JSON (one fit, or the first of `fits`) into its model(s) with labels.
+fn read_fits(path: &Path) -> Result<Vec<brdfit::fit::FitResult>> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read the fit JSON", path.display()))?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+        anyhow!(
+            "{}: not valid JSON ({e})\n  fix: give a file written by brdfit fit --json",
+            path.display()
+        )
+    })?;
+    let list: Vec<serde_json::Value> = match v.get("fits").and_then(|f| f.as_array()) {
+        Some(a) => a.clone(),
+        None => vec![v],
+    };
+    list.iter()
+        .map(|f| {
+            brdfit::fit::FitResult::from_json(f).map_err(|e| {
+                anyhow!(
+                    "{}: {e}\n  fix: give a file written by brdfit fit --json",
+                    path.display()
+                )
+            })
+        })
+        .collect()
+}
+
+/// The output base name without extension.
+fn base(p: &Path) -> PathBuf {
+    match p.extension().and_then(|e| e.to_str()) {
+        Some("svg" | "png") => p.with_extension(""),
+        _ => p.to_path_buf(),
+    }
+}
+
+fn run_plot(cmd: PlotCommand) -> Result<()> {
+    use brdfit::plot;
+    match cmd {
+        PlotCommand::Lobe {
+            fit,
+            model,
+            distribution,
+            set,
+            data,
+            theta_i,
+            quantity,
+            log,
+            tolerance,
+            load,
+            output,
+        } => {
+            let q = match quantity.as_str() {
+                "intensity" => plot::LobeQuantity::Intensity,
+                "brdf" => plot::LobeQuantity::Brdf,
+                _ => {
+                    bail!("unknown quantity '{quantity}'\n  fix: use --quantity intensity or brdf")
+                }
+            };
+            let mut models = Vec::new();
+            for f in &fit {
+                for r in read_fits(f)? {
+                    models.push((format!("{} fit ({})", r.label(), r.channel), r.model_for(0)));
+                }
+            }
+            if let Some(m) = model {
+                let m = ModelArgs {
+                    model: m,
+                    distribution,
+                    set,
+                    fast_pow: None,
+                }
+                .build()?;
+                models.push((format!("{m}"), m));
+            }
+            if models.is_empty() && data.is_none() {
+                bail!(
+                    "nothing to plot\n  fix: give --fit FILE, --model with --set, or --data FILE"
+                );
+            }
+            let ds = data.as_ref().map(|d| load.load(d)).transpose()?;
+            let title = match &data {
+                Some(d) => format!("Reflection in the plane of incidence: {}", d.display()),
+                None => "Reflection in the plane of incidence".to_string(),
+            };
+            let chart = plot::lobe_chart(
+                &title,
+                &models,
+                ds.as_ref().map(|d| (d, 0)),
+                &theta_i,
+                q,
+                log,
+                tolerance,
+            );
+            plot::save(&chart, &base(&output))?;
+            Ok(())
+        }
+        PlotCommand::BlinnFigures { output } => {
+            plot::save(&plot::blinn_figure(30.0, 5), &output.join("figure5"))?;
+            plot::save(&plot::blinn_figure(70.0, 6), &output.join("figure6"))?;
+            Ok(())
+        }
+        PlotCommand::Residuals {
+            fit,
+            data,
+            load,
+            output,
+        } => {
+            let r = read_fits(&fit)?.remove(0);
+            let ds = load.load(&data)?;
+            let pts = plot::residual_points(
+                &ds,
+                0,
+                &r.model_for(0),
+                r.loss == brdfit::fit::problem::Loss::Log,
+            );
+            for (name, chart) in plot::residual_charts(&r.label(), &pts) {
+                plot::save(&chart, &output.join(name))?;
+            }
+            Ok(())
+        }
+        PlotCommand::Slice {
+            fit,
+            data,
+            load,
+            bins,
+            output,
+        } => {
+            let r = read_fits(&fit)?.remove(0);
+            let ds = load.load(&data)?;
+            let (d, f) = plot::slice_grids(&ds, 0, &r.model_for(0), bins.clamp(2, 360));
+            let chart = plot::SliceChart {
+                title: format!("θh × θd slice: {} against {}", data.display(), r.label()),
+                n: bins.clamp(2, 360),
+                images: [d, f],
+            };
+            plot::save(&chart, &base(&output))?;
+            Ok(())
+        }
+        PlotCommand::Albedo { fit, model, output } => {
+            let (label, m) = match (fit, model.build()?) {
+                (Some(f), _) => {
+                    let r = read_fits(&f)?.remove(0);
+                    (r.label(), r.model_for(0))
+                }
+                (None, Some(m)) => (m.kind.to_string(), m),
+                (None, None) => bail!("no model\n  fix: give --fit FILE or --model with --set"),
+            };
+            let (chart, pts) = plot::albedo_chart(&label, &m);
+            plot::save(&chart, &base(&output))?;
+            let worst = pts
+                .iter()
+                .cloned()
+                .fold((0.0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
+            if worst.1 > 1.0 {
+                eprintln!(
+                    "warning: the albedo exceeds 1 (energy is created): ρ = {:.3} at θi = {}°",
+                    worst.1, worst.0
+                );
+            }
+            Ok(())
+        }
+    }
 }
 
 #[derive(Args, Debug, Clone)]
@@ -295,6 +586,7 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Fit { fit, load } => run_fit(&fit, &load),
+        Command::Plot(cmd) => run_plot(cmd),
         Command::Convert {
             input,
             output,

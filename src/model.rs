@@ -614,6 +614,20 @@ impl Model {
     }
 }
 
+/// A number with at most 4 significant digits, without trailing zeros (for labels).
+pub fn short(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let digits = (3 - v.abs().log10().floor() as i32).clamp(0, 12) as usize;
+    let s = format!("{v:.digits$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
 impl fmt::Display for Model {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{}", self.kind)?;
@@ -621,7 +635,7 @@ impl fmt::Display for Model {
             write!(f, " ({})", self.dist.name())?;
         }
         for (n, v) in self.param_names().iter().zip(self.params()) {
-            write!(f, " {n}={v}")?;
+            write!(f, " {n}={}", short(*v))?;
         }
         Ok(())
     }

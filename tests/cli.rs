@@ -391,19 +391,45 @@ fn closed_pipe_is_not_an_error() {
 fn fit_command_end_to_end() {
     let dir = tempfile::tempdir().unwrap();
     let json = dir.path().join("fit.json");
-    let o = brdfit(&["fit", "data/blinn-mgo.csv", "--json", json.to_str().unwrap()]);
+    let o = brdfit(&[
+        "fit",
+        "data/blinn-mgo.csv",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let out = String::from_utf8_lossy(&o.stdout);
-    assert!(out.contains("torrance-sparrow (d3)") && out.contains("std. error"), "{out}");
-    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert!(
+        out.contains("torrance-sparrow (d3)") && out.contains("std. error"),
+        "{out}"
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let n = v["params"]["n"].as_f64().unwrap();
     assert!((n - 1.8).abs() < 0.036, "n = {n}");
-    let o = brdfit(&["fit", "data/blinn-mgo.csv", "--model", "all", "--json", json.to_str().unwrap()]);
+    let o = brdfit(&[
+        "fit",
+        "data/blinn-mgo.csv",
+        "--model",
+        "all",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
     assert!(o.status.success());
     let out = String::from_utf8_lossy(&o.stdout);
-    assert!(out.contains("model comparison") && out.contains("← simplest the data support"), "{out}");
-    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert!(
+        out.contains("model comparison") && out.contains("← simplest the data support"),
+        "{out}"
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(v["fits"].as_array().unwrap().len(), 6);
-    expect_error(&["fit", "data/blinn-mgo.csv", "--fix", "c3=2"], &["blinn-mgo.csv", "c3 = 2 is outside its bounds", "fix:"]);
-    expect_error(&["fit", "data/blinn-mgo.csv", "--method", "bfgs"], &["unknown method 'bfgs'", "--method lm, gn or nm"]);
+    expect_error(
+        &["fit", "data/blinn-mgo.csv", "--fix", "c3=2"],
+        &["blinn-mgo.csv", "c3 = 2 is outside its bounds", "fix:"],
+    );
+    expect_error(
+        &["fit", "data/blinn-mgo.csv", "--method", "bfgs"],
+        &["unknown method 'bfgs'", "--method lm, gn or nm"],
+    );
 }

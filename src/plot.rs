@@ -1,0 +1,819 @@
+//! Charts: polar reflection distributions in the plane of incidence (Blinn 1977, Figures 5
+//! and 6), residual, slice and albedo plots, and the study charts. Each chart is computed as
+//! plain data first (tested on its own), then drawn with plotters to SVG and PNG with the
+//! embedded DejaVu Sans font, so the same input gives the same bytes on every machine.
+
+use crate::data::Dataset;
+use crate::model::{Distribution, Geometry, Model, ModelKind};
+use crate::output::write_bytes_atomic;
+use anyhow::{Result, anyhow};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::f64::consts::PI;
+use std::path::{Path, PathBuf};
+
+static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
+
+fn register_font() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        // The bytes are a valid TrueType font shipped with the crate.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
+    });
+}
+
+/// A chart that can draw itself on any plotters backend.
+pub trait Chart {
+    /// Pixel size (width, height).
+    fn size(&self) -> (u32, u32);
+    /// Draw on `root`.
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()>;
+}
+
+fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+    anyhow!("drawing failed: {e:?}")
+}
+
+/// Render `chart` to `base.svg` and `base.png` (written atomically); returns both paths.
+pub fn save(chart: &impl Chart, base: &Path) -> Result<(PathBuf, PathBuf)> {
+    register_font();
+    let (w, h) = chart.size();
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
+        chart.draw(&root)?;
+        root.present().map_err(err)?;
+    }
+    let mut px = vec![0u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut px, (w, h)).into_drawing_area();
+        chart.draw(&root)?;
+        root.present().map_err(err)?;
+    }
+    let svg_path = base.with_extension("svg");
+    let png_path = base.with_extension("png");
+    write_bytes_atomic(&svg_path, svg.as_bytes())?;
+    write_bytes_atomic(&png_path, &encode_png(w, h, &px)?)?;
+    Ok((svg_path, png_path))
+}
+
+/// PNG bytes of an 8-bit RGB buffer.
+pub fn encode_png(w: u32, h: u32, rgb: &[u8]) -> Result<Vec<u8>> {
+    use image::ImageEncoder;
+    let mut out = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut out)
+        .write_image(rgb, w, h, image::ExtendedColorType::Rgb8)
+        .map_err(|e| anyhow!("PNG encoding failed: {e}"))?;
+    Ok(out)
+}
+
+const PALETTE: [RGBColor; 6] = [
+    RGBColor(0, 90, 181),
+    RGBColor(220, 50, 32),
+    RGBColor(0, 140, 70),
+    RGBColor(150, 60, 170),
+    RGBColor(230, 140, 0),
+    RGBColor(90, 90, 90),
+];
+
+/// What the radius of a lobe plot shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum LobeQuantity {
+    /// Blinn's reflected intensity for a unit light, i = π f_r cosθi.
+    #[default]
+    Intensity,
+    /// The BRDF f_r (1/sr).
+    Brdf,
+}
+
+impl LobeQuantity {
+    fn of(self, f: f64, cos_i: f64) -> f64 {
+        match self {
+            LobeQuantity::Intensity => PI * f * cos_i,
+            LobeQuantity::Brdf => f,
+        }
+    }
+
+    fn label(self) -> &'static str {
+        match self {
+            LobeQuantity::Intensity => "reflected intensity i = π f_r cosθi (unit light)",
+            LobeQuantity::Brdf => "f_r (1/sr)",
+        }
+    }
+}
+
+/// A model's curve in the plane of incidence at θi (degrees): (signed θo in degrees, value),
+/// with θo < 0 on the mirror side (φo = φi + 180°) and θo > 0 on the light's side.
+pub fn lobe_curve(model: &Model, theta_i_deg: f64, q: LobeQuantity) -> Vec<(f64, f64)> {
+    let ti = theta_i_deg.to_radians();
+    (-179..=179)
+        .map(|k| {
+            let s = k as f64 * 0.5;
+            let phi = if s < 0.0 { PI } else { 0.0 };
+            let g = Geometry::from_angles(ti, 0.0, s.abs().to_radians(), phi);
+            (s, q.of(model.brdf(&g), ti.cos()))
+        })
+        .collect()
+}
+
+/// The measured samples of channel `c` in the plane of incidence at θi (within 0.5°):
+/// φo = φi (light side, θo > 0) or φo = φi + 180° (mirror side, θo < 0) within `tol_deg`.
+pub fn in_plane_samples(
+    ds: &Dataset,
+    c: usize,
+    theta_i_deg: f64,
+    tol_deg: f64,
+    q: LobeQuantity,
+) -> Vec<(f64, f64)> {
+    let vals = ds.brdf_values(c);
+    let mut out: Vec<(f64, f64)> = (0..ds.len())
+        .filter_map(|k| {
+            let a = ds.angles(k);
+            if (a[0].to_degrees() - theta_i_deg).abs() > 0.5 || !vals[k].is_finite() {
+                return None;
+            }
+            let d = (a[3] - a[1]).to_degrees().rem_euclid(360.0);
+            let to = a[2].to_degrees();
+            let side = if d.min(360.0 - d) <= tol_deg {
+                1.0
+            } else if (d - 180.0).abs() <= tol_deg {
+                -1.0
+            } else {
+                return None;
+            };
+            Some((side * to, q.of(vals[k], a[0].cos())))
+        })
+        .collect();
+    out.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    out
+}
+
+/// The maximum of a curve: (signed θo, value).
+pub fn curve_max(points: &[(f64, f64)]) -> (f64, f64) {
+    points.iter().copied().fold(
+        (0.0, f64::NEG_INFINITY),
+        |a, b| if b.1 > a.1 { b } else { a },
+    )
+}
+
+/// One series of a lobe plot.
+#[derive(Clone, Debug)]
+pub struct LobeSeries {
+    /// Legend label.
+    pub label: String,
+    /// Points (signed θo in degrees, value).
+    pub points: Vec<(f64, f64)>,
+    /// Markers (measured samples) instead of a line.
+    pub markers: bool,
+}
+
+/// One polar panel: the incidence angle and its series.
+#[derive(Clone, Debug)]
+pub struct LobePanel {
+    /// Panel title.
+    pub title: String,
+    /// Incidence angle in degrees (for the incoming ray and the mirror direction).
+    pub theta_i_deg: f64,
+    /// Series.
+    pub series: Vec<LobeSeries>,
+}
+
+/// Polar reflection-distribution chart: panels side by side.
+#[derive(Clone, Debug)]
+pub struct LobeChart {
+    /// Chart title.
+    pub title: String,
+    /// Panels.
+    pub panels: Vec<LobePanel>,
+    /// What the radius shows.
+    pub quantity: LobeQuantity,
+    /// Log radius (4 decades below the maximum), for measured data with sharp peaks.
+    pub log: bool,
+}
+
+impl LobeChart {
+    /// Pixel size of the rendered chart.
+    pub fn size_px(&self) -> (u32, u32) {
+        self.size()
+    }
+
+    /// The radius drawn for a value, given the largest value `vmax` in the chart.
+    pub fn radius(&self, v: f64, vmax: f64) -> f64 {
+        if self.log {
+            ((v / vmax).max(1e-300).log10() + 4.0).max(0.0) / 4.0
+        } else {
+            v / vmax
+        }
+    }
+
+    fn vmax(&self) -> f64 {
+        self.panels
+            .iter()
+            .flat_map(|p| &p.series)
+            .flat_map(|s| &s.points)
+            .map(|p| p.1)
+            .filter(|v| v.is_finite())
+            .fold(1e-300, f64::max)
+    }
+}
+
+impl Chart for LobeChart {
+    fn size(&self) -> (u32, u32) {
+        (560 * self.panels.len().max(1) as u32, 420)
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()> {
+        root.fill(&WHITE).map_err(err)?;
+        let root = root.titled(&self.title, ("sans-serif", 20)).map_err(err)?;
+        let areas = root.split_evenly((1, self.panels.len().max(1)));
+        let vmax = self.vmax();
+        let unit = if self.log {
+            format!(
+                "radius: log₁₀ of {}, 4 decades to the outer circle ({})",
+                self.quantity.label(),
+                crate::model::short(vmax)
+            )
+        } else {
+            format!(
+                "radius: {}, outer circle = {}",
+                self.quantity.label(),
+                crate::model::short(vmax)
+            )
+        };
+        for (panel, area) in self.panels.iter().zip(&areas) {
+            let (area, foot) = area.split_vertically(area.dim_in_pixel().1.saturating_sub(22));
+            foot.draw(&Text::new(unit.clone(), (14, 4), ("sans-serif", 11)))
+                .map_err(err)?;
+            let mut chart = ChartBuilder::on(&area)
+                .caption(&panel.title, ("sans-serif", 16))
+                .margin(10)
+                .x_label_area_size(36)
+                .y_label_area_size(40)
+                .build_cartesian_2d(-1.1f64..1.1f64, 0f64..1.1f64)
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .disable_mesh()
+                .x_desc("relative to the normal (mirror side ←, light side →)")
+                .y_desc("along the normal")
+                .label_style(("sans-serif", 11))
+                .axis_desc_style(("sans-serif", 12))
+                .draw()
+                .map_err(err)?;
+            // Polar grid: circles at quarter radii and the surface line.
+            for k in 1..=4 {
+                let r = k as f64 / 4.0;
+                chart
+                    .draw_series(LineSeries::new(
+                        (0..=90).map(|d| {
+                            let a = (d as f64 * 2.0 - 90.0).to_radians();
+                            (r * a.sin(), r * a.cos())
+                        }),
+                        RGBColor(220, 220, 220),
+                    ))
+                    .map_err(err)?;
+            }
+            let ti = panel.theta_i_deg.to_radians();
+            // Incoming ray from the right, and the mirror direction on the left (dashed).
+            chart
+                .draw_series(LineSeries::new(
+                    vec![(1.05 * ti.sin(), 1.05 * ti.cos()), (0.0, 0.0)],
+                    BLACK.stroke_width(2),
+                ))
+                .map_err(err)?
+                .label(format!("incoming ray, θi = {}°", panel.theta_i_deg))
+                .legend(|(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], BLACK.stroke_width(2))
+                });
+            let dash: Vec<(f64, f64)> = (0..10)
+                .flat_map(|k| {
+                    let a = k as f64 / 10.0 * 1.05;
+                    [
+                        (-a * ti.sin(), a * ti.cos()),
+                        (-(a + 0.05) * ti.sin(), (a + 0.05) * ti.cos()),
+                    ]
+                })
+                .collect();
+            for seg in dash.chunks(2) {
+                chart
+                    .draw_series(LineSeries::new(seg.to_vec(), RGBColor(120, 120, 120)))
+                    .map_err(err)?;
+            }
+            for (k, s) in panel.series.iter().enumerate() {
+                let color = PALETTE[k % PALETTE.len()];
+                let xy: Vec<(f64, f64)> = s
+                    .points
+                    .iter()
+                    .filter(|p| p.1.is_finite())
+                    .map(|&(t, v)| {
+                        let r = self.radius(v, vmax);
+                        let a = t.to_radians();
+                        (r * a.sin(), r * a.cos())
+                    })
+                    .collect();
+                if s.markers {
+                    chart
+                        .draw_series(xy.iter().map(|p| Circle::new(*p, 2, color.filled())))
+                        .map_err(err)?
+                        .label(s.label.clone())
+                        .legend(move |(x, y)| Circle::new((x + 9, y), 3, color.filled()));
+                } else {
+                    chart
+                        .draw_series(LineSeries::new(xy, color.stroke_width(2)))
+                        .map_err(err)?
+                        .label(s.label.clone())
+                        .legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+                        });
+                }
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperLeft)
+                .label_font(("sans-serif", 11))
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .draw()
+                .map_err(err)?;
+        }
+        Ok(())
+    }
+}
+
+/// The two models of Blinn's Figures 5 and 6: Phong in Blinn's form, (N·H)^c1 with his
+/// "typical" c1 = 50, and Torrance–Sparrow (D3) with the same half-angle β (c3 = c3(β)) on
+/// Blinn's magnesium oxide optics (n 1.8, ps .667, pd .333). Phong's ps is chosen so the two
+/// specular peaks match at normal incidence (ps_phong = ps F0).
+pub fn blinn_figure_models() -> (Model, Model) {
+    let c1 = 50.0;
+    // β with cos^c1 β = ½.
+    let beta = (0.5f64).powf(1.0 / c1).acos();
+    let c3 = Distribution::D3.param_from_beta(beta);
+    let (n, ps, pd) = (1.8, 0.667, 0.333);
+    let ts = Model::new(
+        ModelKind::TorranceSparrow,
+        Distribution::D3,
+        &[n, c3, ps, pd],
+    )
+    .expect("valid constants");
+    let phong = Model::new(
+        ModelKind::BlinnPhong,
+        Distribution::D3,
+        &[c1, ps * crate::model::f0_from_n(n), pd],
+    )
+    .expect("valid constants");
+    (phong, ts)
+}
+
+/// Blinn's Figure 5 (θi = 30°) or 6 (θi = 70°) as a chart: Phong and Torrance–Sparrow side by side.
+pub fn blinn_figure(theta_i_deg: f64, number: u32) -> LobeChart {
+    let (phong, ts) = blinn_figure_models();
+    let panel = |title: &str, m: &Model| LobePanel {
+        title: title.to_string(),
+        theta_i_deg,
+        series: vec![LobeSeries {
+            label: format!("{m}"),
+            points: lobe_curve(m, theta_i_deg, LobeQuantity::Intensity),
+            markers: false,
+        }],
+    };
+    LobeChart {
+        title: format!(
+            "Figure {number}: Phong and Torrance–Sparrow reflection distributions, incident light at {theta_i_deg}° (equal β)"
+        ),
+        panels: vec![
+            panel("Phong model", &phong),
+            panel("Torrance–Sparrow model", &ts),
+        ],
+        quantity: LobeQuantity::Intensity,
+        log: false,
+    }
+}
+
+/// Directional albedo ρ(θi) = ∫ f_r cosθo dω_o, midpoint rule on a 180 × 360 grid in
+/// (θo, φo) (θo resolved more finely near a sharp peak only through the grid, so very sharp
+/// lobes are integrated less accurately).
+pub fn albedo(model: &Model, theta_i_deg: f64) -> f64 {
+    let ti = theta_i_deg.to_radians();
+    let (nt, np) = (180, 360);
+    let dt = 0.5 * PI / nt as f64;
+    let dp = 2.0 * PI / np as f64;
+    let mut sum = 0.0;
+    for a in 0..nt {
+        let to = (a as f64 + 0.5) * dt;
+        let w = to.cos() * to.sin() * dt * dp;
+        for b in 0..np {
+            let po = (b as f64 + 0.5) * dp;
+            sum += model.brdf(&Geometry::from_angles(ti, 0.0, to, po)) * w;
+        }
+    }
+    sum
+}
+
+/// Generic x–y chart with several series (lines or markers), for residual, albedo and study
+/// charts.
+#[derive(Clone, Debug)]
+pub struct XyChart {
+    /// Title.
+    pub title: String,
+    /// X axis label with unit.
+    pub x_label: String,
+    /// Y axis label with unit.
+    pub y_label: String,
+    /// Series: label, points, markers.
+    pub series: Vec<LobeSeries>,
+    /// Logarithmic x axis.
+    pub log_x: bool,
+    /// Logarithmic y axis.
+    pub log_y: bool,
+    /// Optional horizontal reference line (value, label).
+    pub hline: Option<(f64, String)>,
+}
+
+fn range_of(vals: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in vals.filter(|v| v.is_finite() && (!log || *v > 0.0)) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if !lo.is_finite() {
+        return if log { (1e-3, 1.0) } else { (0.0, 1.0) };
+    }
+    if log {
+        (lo / 1.5, hi * 1.5)
+    } else {
+        let pad = 0.05 * (hi - lo).max(1e-12 * hi.abs().max(1.0));
+        (lo - pad, hi + pad)
+    }
+}
+
+impl Chart for XyChart {
+    fn size(&self) -> (u32, u32) {
+        (760, 480)
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()> {
+        root.fill(&WHITE).map_err(err)?;
+        let all = || self.series.iter().flat_map(|s| s.points.iter());
+        let (x0, x1) = range_of(all().map(|p| p.0), self.log_x);
+        let (mut y0, mut y1) = range_of(all().map(|p| p.1), self.log_y);
+        if let Some((h, _)) = &self.hline {
+            y0 = y0.min(*h);
+            y1 = y1.max(*h * 1.05);
+        }
+        let tx = |v: f64| if self.log_x { v.log10() } else { v };
+        let ty = |v: f64| if self.log_y { v.log10() } else { v };
+        let mut chart = ChartBuilder::on(root)
+            .caption(&self.title, ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(42)
+            .y_label_area_size(64)
+            .build_cartesian_2d(tx(x0)..tx(x1), ty(y0)..ty(y1))
+            .map_err(err)?;
+        let xl = if self.log_x {
+            format!("log₁₀ {}", self.x_label)
+        } else {
+            self.x_label.clone()
+        };
+        let yl = if self.log_y {
+            format!("log₁₀ {}", self.y_label)
+        } else {
+            self.y_label.clone()
+        };
+        chart
+            .configure_mesh()
+            .x_desc(xl)
+            .y_desc(yl)
+            .label_style(("sans-serif", 11))
+            .axis_desc_style(("sans-serif", 13))
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()
+            .map_err(err)?;
+        if let Some((h, label)) = &self.hline {
+            chart
+                .draw_series(LineSeries::new(
+                    vec![(tx(x0), ty(*h)), (tx(x1), ty(*h))],
+                    BLACK,
+                ))
+                .map_err(err)?
+                .label(label.clone())
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK));
+        }
+        for (k, s) in self.series.iter().enumerate() {
+            let color = PALETTE[k % PALETTE.len()];
+            let xy: Vec<(f64, f64)> = s
+                .points
+                .iter()
+                .filter(|p| p.0.is_finite() && p.1.is_finite())
+                .filter(|p| (!self.log_x || p.0 > 0.0) && (!self.log_y || p.1 > 0.0))
+                .map(|p| (tx(p.0), ty(p.1)))
+                .collect();
+            if s.markers {
+                chart
+                    .draw_series(xy.iter().map(|p| Circle::new(*p, 3, color.filled())))
+                    .map_err(err)?
+                    .label(s.label.clone())
+                    .legend(move |(x, y)| Circle::new((x + 9, y), 3, color.filled()));
+            } else {
+                chart
+                    .draw_series(LineSeries::new(xy, color.stroke_width(2)))
+                    .map_err(err)?
+                    .label(s.label.clone())
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+                    });
+            }
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .label_font(("sans-serif", 11))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(err)?;
+        Ok(())
+    }
+}
+
+/// Albedo chart of a model: ρ(θi) for θi = 0…85°, with the energy limit ρ = 1 marked.
+pub fn albedo_chart(label: &str, model: &Model) -> (XyChart, Vec<(f64, f64)>) {
+    let pts: Vec<(f64, f64)> = (0..=17)
+        .map(|k| (5.0 * k as f64, albedo(model, 5.0 * k as f64)))
+        .collect();
+    let chart = XyChart {
+        title: format!("Directional albedo of {label}"),
+        x_label: "incidence angle θi (degrees)".into(),
+        y_label: "directional albedo ρ(θi) = ∫ f_r cosθo dω".into(),
+        series: vec![LobeSeries {
+            label: format!("{model}"),
+            points: pts.clone(),
+            markers: false,
+        }],
+        log_x: false,
+        log_y: false,
+        hline: Some((1.0, "energy limit ρ = 1".into())),
+    };
+    (chart, pts)
+}
+
+/// Residuals of a model on channel `c`: (θh, θd, θi in degrees, residual of the loss).
+pub fn residual_points(ds: &Dataset, c: usize, model: &Model, log_loss: bool) -> Vec<[f64; 4]> {
+    let vals = ds.brdf_values(c);
+    (0..ds.len())
+        .filter(|&k| vals[k].is_finite())
+        .filter_map(|k| {
+            let a = ds.angles(k);
+            let g = Geometry::from_angles(a[0], a[1], a[2], a[3]);
+            if !g.visible() {
+                return None;
+            }
+            let f = model.brdf(&g);
+            let r = if log_loss {
+                (g.nl * f).ln_1p() - (g.nl * vals[k]).ln_1p()
+            } else {
+                f - vals[k]
+            };
+            let hd = crate::data::merl::std_to_half_diff(a);
+            Some([hd[0].to_degrees(), hd[2].to_degrees(), a[0].to_degrees(), r])
+        })
+        .collect()
+}
+
+/// Residual charts against θh, θd and θi.
+pub fn residual_charts(label: &str, pts: &[[f64; 4]]) -> Vec<(String, XyChart)> {
+    ["θh", "θd", "θi"]
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let file = ["residual-theta-h", "residual-theta-d", "residual-theta-i"][k];
+            (
+                file.to_string(),
+                XyChart {
+                    title: format!("Residuals of {label} against {name}"),
+                    x_label: format!("{name} (degrees)"),
+                    y_label: "residual r (loss units)".into(),
+                    series: vec![LobeSeries {
+                        label: "samples".into(),
+                        points: pts.iter().map(|p| (p[k], p[3])).collect(),
+                        markers: true,
+                    }],
+                    log_x: false,
+                    log_y: false,
+                    hline: Some((0.0, "r = 0".into())),
+                },
+            )
+        })
+        .collect()
+}
+
+/// θh × θd image (BRDF Explorer's image slice) of data and model side by side: `n`×`n` bins
+/// over [0°, 90°)², each bin the mean log10 f_r of its samples (data) or the model at the bin
+/// centre with φd = 90° (fit); NaN where a bin has no sample.
+pub fn slice_grids(ds: &Dataset, c: usize, model: &Model, n: usize) -> (Vec<f64>, Vec<f64>) {
+    let vals = ds.brdf_values(c);
+    let mut sum = vec![0.0; n * n];
+    let mut cnt = vec![0usize; n * n];
+    for k in 0..ds.len() {
+        if !(vals[k] > 0.0) {
+            continue;
+        }
+        let hd = crate::data::merl::std_to_half_diff(ds.angles(k));
+        let i = ((hd[0] / (0.5 * PI)) * n as f64) as usize;
+        let j = ((hd[2] / (0.5 * PI)) * n as f64) as usize;
+        if i < n && j < n {
+            sum[i * n + j] += vals[k].log10();
+            cnt[i * n + j] += 1;
+        }
+    }
+    let data: Vec<f64> = sum
+        .iter()
+        .zip(&cnt)
+        .map(|(s, c)| if *c > 0 { s / *c as f64 } else { f64::NAN })
+        .collect();
+    let fit: Vec<f64> = (0..n * n)
+        .map(|ij| {
+            let (i, j) = (ij / n, ij % n);
+            let th = (i as f64 + 0.5) / n as f64 * 0.5 * PI;
+            let td = (j as f64 + 0.5) / n as f64 * 0.5 * PI;
+            let a = crate::data::merl::half_diff_to_std(th, 0.0, td, 0.5 * PI);
+            let g = Geometry::from_angles(a[0], a[1], a[2], a[3]);
+            let f = model.brdf(&g);
+            if g.visible() && f > 0.0 {
+                f.log10()
+            } else {
+                f64::NAN
+            }
+        })
+        .collect();
+    (data, fit)
+}
+
+/// Two images side by side with a shared colour scale.
+#[derive(Clone, Debug)]
+pub struct SliceChart {
+    /// Title.
+    pub title: String,
+    /// Grid size.
+    pub n: usize,
+    /// Left image (data) and right image (fit), row-major [θh][θd].
+    pub images: [Vec<f64>; 2],
+}
+
+fn colormap(t: f64) -> RGBColor {
+    // A perceptually ordered dark-blue → yellow ramp (piecewise linear, viridis-like).
+    const STOPS: [(f64, [f64; 3]); 5] = [
+        (0.0, [68.0, 1.0, 84.0]),
+        (0.25, [59.0, 82.0, 139.0]),
+        (0.5, [33.0, 145.0, 140.0]),
+        (0.75, [94.0, 201.0, 98.0]),
+        (1.0, [253.0, 231.0, 37.0]),
+    ];
+    let t = t.clamp(0.0, 1.0);
+    let k = STOPS.iter().position(|s| s.0 >= t).unwrap_or(4).max(1);
+    let (a, b) = (STOPS[k - 1], STOPS[k]);
+    let u = (t - a.0) / (b.0 - a.0);
+    let c = |i: usize| (a.1[i] + u * (b.1[i] - a.1[i])).round() as u8;
+    RGBColor(c(0), c(1), c(2))
+}
+
+impl Chart for SliceChart {
+    fn size(&self) -> (u32, u32) {
+        (900, 470)
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()> {
+        root.fill(&WHITE).map_err(err)?;
+        let root = root.titled(&self.title, ("sans-serif", 18)).map_err(err)?;
+        let (lo, hi) = range_of(self.images.iter().flatten().copied(), false);
+        let areas = root.split_evenly((1, 2));
+        for (k, area) in areas.iter().enumerate() {
+            let mut chart = ChartBuilder::on(area)
+                .caption(
+                    if k == 0 {
+                        "data: mean log₁₀ f_r per bin"
+                    } else {
+                        "fit: log₁₀ f_r at φd = 90°"
+                    },
+                    ("sans-serif", 14),
+                )
+                .margin(10)
+                .x_label_area_size(36)
+                .y_label_area_size(44)
+                .build_cartesian_2d(0f64..90f64, 0f64..90f64)
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .disable_mesh()
+                .x_desc("θd (degrees)")
+                .y_desc("θh (degrees)")
+                .label_style(("sans-serif", 11))
+                .draw()
+                .map_err(err)?;
+            let n = self.n;
+            let step = 90.0 / n as f64;
+            chart
+                .draw_series((0..n * n).map(|ij| {
+                    let (i, j) = (ij / n, ij % n);
+                    let v = self.images[k][ij];
+                    let color = if v.is_finite() {
+                        colormap((v - lo) / (hi - lo).max(1e-12))
+                    } else {
+                        RGBColor(200, 200, 200)
+                    };
+                    Rectangle::new(
+                        [
+                            (j as f64 * step, i as f64 * step),
+                            ((j + 1) as f64 * step, (i + 1) as f64 * step),
+                        ],
+                        color.filled(),
+                    )
+                }))
+                .map_err(err)?;
+        }
+        root.draw(&Text::new(
+            format!("colour: log₁₀ f_r from {lo:.2} (dark) to {hi:.2} (yellow); grey = no sample"),
+            (20, 440),
+            ("sans-serif", 12),
+        ))
+        .map_err(err)?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lambert_albedo_is_pd() {
+        for pd in [0.2, 0.5, 0.9] {
+            let m = Model::new(ModelKind::Lambert, Distribution::D3, &[pd]).unwrap();
+            for ti in [0.0, 30.0, 75.0] {
+                assert!(
+                    (albedo(&m, ti) - pd).abs() < 1e-3,
+                    "pd {pd} θi {ti}: {}",
+                    albedo(&m, ti)
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn lobe_curve_of_lambert_is_a_semicircle_of_radius_pd_cos() {
+        let m = Model::new(ModelKind::Lambert, Distribution::D3, &[0.6]).unwrap();
+        for (_, v) in lobe_curve(&m, 30.0, LobeQuantity::Intensity) {
+            assert!((v - 0.6 * 30f64.to_radians().cos()).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn colormap_ends() {
+        assert_eq!(colormap(0.0), RGBColor(68, 1, 84));
+        assert_eq!(colormap(1.0), RGBColor(253, 231, 37));
+    }
+}
+
+/// A lobe chart with one panel per incidence angle: each model's curve, and, when data are
+/// given, the in-plane samples of channel `c` within `tol_deg` of the plane.
+pub fn lobe_chart(
+    title: &str,
+    models: &[(String, Model)],
+    data: Option<(&Dataset, usize)>,
+    thetas: &[f64],
+    q: LobeQuantity,
+    log: bool,
+    tol_deg: f64,
+) -> LobeChart {
+    let panels = thetas
+        .iter()
+        .map(|&t| {
+            let mut series: Vec<LobeSeries> = models
+                .iter()
+                .map(|(label, m)| LobeSeries {
+                    label: label.clone(),
+                    points: lobe_curve(m, t, q),
+                    markers: false,
+                })
+                .collect();
+            if let Some((ds, c)) = data {
+                series.push(LobeSeries {
+                    label: "measured, in plane".into(),
+                    points: in_plane_samples(ds, c, t, tol_deg, q),
+                    markers: true,
+                });
+            }
+            LobePanel {
+                title: format!("θi = {t}°"),
+                theta_i_deg: t,
+                series,
+            }
+        })
+        .collect();
+    LobeChart {
+        title: title.to_string(),
+        panels,
+        quantity: q,
+        log,
+    }
+}
