@@ -741,39 +741,6 @@ impl Chart for SliceChart {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn lambert_albedo_is_pd() {
-        for pd in [0.2, 0.5, 0.9] {
-            let m = Model::new(ModelKind::Lambert, Distribution::D3, &[pd]).unwrap();
-            for ti in [0.0, 30.0, 75.0] {
-                assert!(
-                    (albedo(&m, ti) - pd).abs() < 1e-3,
-                    "pd {pd} θi {ti}: {}",
-                    albedo(&m, ti)
-                );
-            }
-        }
-    }
-
-    #[test]
-    fn lobe_curve_of_lambert_is_a_semicircle_of_radius_pd_cos() {
-        let m = Model::new(ModelKind::Lambert, Distribution::D3, &[0.6]).unwrap();
-        for (_, v) in lobe_curve(&m, 30.0, LobeQuantity::Intensity) {
-            assert!((v - 0.6 * 30f64.to_radians().cos()).abs() < 1e-12);
-        }
-    }
-
-    #[test]
-    fn colormap_ends() {
-        assert_eq!(colormap(0.0), RGBColor(68, 1, 84));
-        assert_eq!(colormap(1.0), RGBColor(253, 231, 37));
-    }
-}
-
 /// A lobe chart with one panel per incidence angle: each model's curve, and, when data are
 /// given, the in-plane samples of channel `c` within `tol_deg` of the plane.
 pub fn lobe_chart(
@@ -815,5 +782,38 @@ pub fn lobe_chart(
         panels,
         quantity: q,
         log,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lambert_albedo_is_pd() {
+        for pd in [0.2, 0.5, 0.9] {
+            let m = Model::new(ModelKind::Lambert, Distribution::D3, &[pd]).unwrap();
+            for ti in [0.0, 30.0, 75.0] {
+                assert!(
+                    (albedo(&m, ti) - pd).abs() < 1e-3,
+                    "pd {pd} θi {ti}: {}",
+                    albedo(&m, ti)
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn lobe_curve_of_lambert_is_a_semicircle_of_radius_pd_cos() {
+        let m = Model::new(ModelKind::Lambert, Distribution::D3, &[0.6]).unwrap();
+        for (_, v) in lobe_curve(&m, 30.0, LobeQuantity::Intensity) {
+            assert!((v - 0.6 * 30f64.to_radians().cos()).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn colormap_ends() {
+        assert_eq!(colormap(0.0), RGBColor(68, 1, 84));
+        assert_eq!(colormap(1.0), RGBColor(253, 231, 37));
     }
 }
