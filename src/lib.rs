@@ -18,3 +18,4 @@ pub mod model;
 pub mod output;
 pub mod plot;
 pub mod simulate;
+pub mod study;

@@ -73,6 +73,9 @@ enum Command {
     /// Plots: polar lobes (Blinn's Figures 5–6), residuals, θh×θd slices, albedo.
     #[command(subcommand)]
     Plot(PlotCommand),
+    /// Studies: speed against accuracy of every method × model, and stability from random starts.
+    #[command(subcommand)]
+    Study(StudyCommand),
     /// Convert between formats: any → brdfit CSV, CSV (or any) → MERL .binary.
     #[command(
         after_help = "Example:\n  brdfit convert data/cayman.astm --channel cie-y -o cayman.csv"
@@ -185,6 +188,138 @@ enum PlotCommand {
         #[arg(short, long)]
         output: PathBuf,
     },
+}
+
+#[derive(Subcommand, Debug)]
+enum StudyCommand {
+    /// Every method (LM, Gauss–Newton, Nelder–Mead, scipy when available) × model: time and
+    /// work against final cost (and parameter error when the data carry their truth).
+    #[command(
+        after_help = "Example:\n  brdfit study speed-accuracy data/blinn-mgo.csv -o reports/study"
+    )]
+    SpeedAccuracy {
+        /// The data set (channel 0, or --channel).
+        data: PathBuf,
+        #[command(flatten)]
+        load: LoadArgs,
+        /// Timed runs per fit (the median is reported).
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+        /// Python with numpy and scipy, to run the scipy peer side by side.
+        #[arg(long, env = "BRDFIT_PEER_PYTHON")]
+        peer_python: Option<String>,
+        /// The peer script.
+        #[arg(long, default_value = "../shared/peers/scipy_fit.py")]
+        peer_script: PathBuf,
+        /// Output directory (speed-accuracy.svg/png/csv/md).
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Share of seeded random starts reaching the global minimum, per method, with and without
+    /// the global initialisation, across noise levels and sampling patterns.
+    #[command(
+        after_help = "Example:\n  brdfit study stability data/blinn-aluminium.csv --starts 8 -o reports/study"
+    )]
+    Stability {
+        /// The data set: its truth (synthetic files) or its Torrance–Sparrow fit is the reference.
+        data: PathBuf,
+        #[command(flatten)]
+        load: LoadArgs,
+        /// Random starts per method and configuration.
+        #[arg(long, default_value_t = 8)]
+        starts: usize,
+        /// Seed of the synthetic data and the starts.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output directory (stability.svg/png/csv/md).
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+}
+
+fn study_input(data: &Path, load: &LoadArgs) -> Result<Dataset> {
+    let ds = load.load(data)?;
+    Ok(if ds.channels.len() > 1 && load.channel.is_none() {
+        if ds.channels.iter().any(|c| c.wavelength_nm.is_some()) {
+            ds.select(&ChannelSelect::CieY)
+                .map_err(|m| anyhow!("{m}"))?
+        } else {
+            ds.select(&ChannelSelect::Index(0))
+                .map_err(|m| anyhow!("{m}"))?
+        }
+    } else {
+        ds
+    })
+}
+
+fn run_study(cmd: StudyCommand) -> Result<()> {
+    use brdfit::{plot, study};
+    match cmd {
+        StudyCommand::SpeedAccuracy {
+            data,
+            load,
+            repeats,
+            peer_python,
+            peer_script,
+            output,
+        } => {
+            let ds = study_input(&data, &load)?;
+            let truth = study::parse_truth(&ds);
+            let mut rows = study::speed_accuracy(&ds, truth.as_ref(), repeats);
+            match peer_python
+                .as_deref()
+                .and_then(|py| study::scipy_peer(&ds, py, &peer_script))
+            {
+                Some(r) => rows.push(r),
+                None => eprintln!(
+                    "note: scipy peer not run (give --peer-python with numpy and scipy, and --peer-script)"
+                ),
+            }
+            let title = format!("Speed against accuracy: {}", data.display());
+            plot::save(
+                &study::speed_chart(&title, &rows, false),
+                &output.join("speed-accuracy"),
+            )?;
+            let (md, csv) = study::speed_tables(&rows, true);
+            brdfit::output::write_bytes_atomic(
+                &output.join("speed-accuracy.md"),
+                format!("# {title}\n\n{md}").as_bytes(),
+            )?;
+            brdfit::output::write_bytes_atomic(&output.join("speed-accuracy.csv"), csv.as_bytes())?;
+            print(&md)
+        }
+        StudyCommand::Stability {
+            data,
+            load,
+            starts,
+            seed,
+            output,
+        } => {
+            let ds = study_input(&data, &load)?;
+            let reference = match study::parse_truth(&ds) {
+                Some(m) if m.kind == ModelKind::TorranceSparrow => m,
+                _ => {
+                    let mut o = brdfit::fit::FitOptions::new(ModelKind::TorranceSparrow);
+                    o.profile = false;
+                    brdfit::fit::fit(&ds, &o).map_err(|e| anyhow!("{}: {e}", data.display()))?[0]
+                        .model_for(0)
+                }
+            };
+            let rows = study::stability(&reference, starts.clamp(1, 1000), seed);
+            let title = format!("Stability from {starts} random starts around {reference}");
+            plot::save(
+                &study::stability_chart(&title, &rows),
+                &output.join("stability"),
+            )?;
+            let (md, csv) = study::stability_tables(&rows);
+            brdfit::output::write_bytes_atomic(
+                &output.join("stability.md"),
+                format!("# {title}\n\n{md}").as_bytes(),
+            )?;
+            brdfit::output::write_bytes_atomic(&output.join("stability.csv"), csv.as_bytes())?;
+            print(&md)
+        }
+    }
 }
 
 #[derive(Args, Debug, Clone)]
@@ -587,6 +722,7 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::Fit { fit, load } => run_fit(&fit, &load),
         Command::Plot(cmd) => run_plot(cmd),
+        Command::Study(cmd) => run_study(cmd),
         Command::Convert {
             input,
             output,

@@ -1,0 +1,516 @@
+//! Studies: where each method is fast, accurate, or fails.
+//!
+//! - [`speed_accuracy`]: every method × model on one data set — fit time and work against final
+//!   cost and, with a known truth, parameter error; the Pareto front of time against cost.
+//! - [`stability`]: for each method, the share of seeded random starts that reach the global
+//!   minimum, with and without the global initialisation, across noise levels and sampling
+//!   patterns of synthetic data drawn from the data set's own Torrance–Sparrow fit (or its
+//!   known truth).
+
+use crate::data::Dataset;
+use crate::fit::lsq::Method;
+use crate::fit::{self, FitOptions};
+use crate::model::{Distribution, Model, ModelKind};
+use crate::plot::{LobeSeries, XyChart};
+use crate::simulate::{Grid, simulate};
+use rand::{Rng, SeedableRng};
+use rayon::prelude::*;
+use std::fmt::Write;
+
+/// The model a synthetic file was made from, from its `truth:` comment (written by
+/// `brdfit simulate`), if any.
+pub fn parse_truth(ds: &Dataset) -> Option<Model> {
+    let line = ds
+        .meta
+        .comments
+        .iter()
+        .find_map(|c| c.strip_prefix("truth:"))?;
+    let mut words = line.split_whitespace();
+    let kind = ModelKind::parse(words.next()?)?;
+    let mut dist = Distribution::D3;
+    let mut set = Vec::new();
+    for w in words {
+        if let Some(d) = w.strip_prefix('(').and_then(|d| d.strip_suffix(')')) {
+            dist = Distribution::parse(d)?;
+        } else if let Some((k, v)) = w.split_once('=') {
+            set.push((k.to_string(), v.parse().ok()?));
+        }
+    }
+    Model::from_named(kind, dist, &set).ok()
+}
+
+/// One row of the speed–accuracy table.
+#[derive(Clone, Debug)]
+pub struct SpeedRow {
+    /// Method name (lm, gn, nm, or scipy).
+    pub method: String,
+    /// Model label.
+    pub model: String,
+    /// Wall time of the fit (median of `repeats`).
+    pub seconds: f64,
+    /// Residual evaluations: evaluations × samples (deterministic work measure).
+    pub work: f64,
+    /// Final cost.
+    pub cost: f64,
+    /// Largest relative parameter error against the truth (same model only).
+    pub param_error: Option<f64>,
+}
+
+/// The models of the speed–accuracy study.
+pub fn study_models() -> Vec<(ModelKind, Distribution)> {
+    vec![
+        (ModelKind::Phong, Distribution::D3),
+        (ModelKind::BlinnPhong, Distribution::D3),
+        (ModelKind::TorranceSparrow, Distribution::D1),
+        (ModelKind::TorranceSparrow, Distribution::D2),
+        (ModelKind::TorranceSparrow, Distribution::D3),
+    ]
+}
+
+/// Run every method × model on channel 0 of `ds` (median time of `repeats` runs).
+pub fn speed_accuracy(ds: &Dataset, truth: Option<&Model>, repeats: usize) -> Vec<SpeedRow> {
+    let mut rows = Vec::new();
+    for method in [Method::Lm, Method::GaussNewton, Method::NelderMead] {
+        for (kind, dist) in study_models() {
+            let mut o = FitOptions::new(kind);
+            o.dist = dist;
+            o.method = method;
+            o.profile = false;
+            let mut times = Vec::new();
+            let mut last = None;
+            for _ in 0..repeats.max(1) {
+                match fit::fit(ds, &o) {
+                    Ok(mut f) => {
+                        let f = f.remove(0);
+                        times.push(f.seconds);
+                        last = Some(f);
+                    }
+                    Err(_) => break,
+                }
+            }
+            let Some(f) = last else { continue };
+            times.sort_by(f64::total_cmp);
+            let param_error = truth.filter(|t| t.kind == kind && t.dist == dist).map(|t| {
+                let m = f.model_for(0);
+                t.params()
+                    .iter()
+                    .zip(m.params())
+                    .map(|(a, b)| ((a - b) / a).abs())
+                    .fold(0.0, f64::max)
+            });
+            rows.push(SpeedRow {
+                method: method.name().into(),
+                model: f.label(),
+                seconds: times[times.len() / 2],
+                work: (f.evaluations * f.samples_used) as f64,
+                cost: f.cost,
+                param_error,
+            });
+        }
+    }
+    rows
+}
+
+/// Indices of the rows on the Pareto front of (x, cost): no other row is at least as good in
+/// both and better in one.
+pub fn pareto(points: &[(f64, f64)]) -> Vec<usize> {
+    let mut idx: Vec<usize> = (0..points.len())
+        .filter(|&i| {
+            !points.iter().enumerate().any(|(j, q)| {
+                j != i
+                    && q.0 <= points[i].0
+                    && q.1 <= points[i].1
+                    && (q.0 < points[i].0 || q.1 < points[i].1)
+            })
+        })
+        .collect();
+    idx.sort_by(|&a, &b| points[a].0.total_cmp(&points[b].0));
+    idx
+}
+
+/// The speed–accuracy chart: cost against time (or work, when `deterministic`), one marker
+/// series per method, the Pareto front as a line.
+pub fn speed_chart(title: &str, rows: &[SpeedRow], deterministic: bool) -> XyChart {
+    let x = |r: &SpeedRow| if deterministic { r.work } else { r.seconds };
+    let mut series: Vec<LobeSeries> = Vec::new();
+    for m in ["lm", "gn", "nm", "scipy"] {
+        let pts: Vec<(f64, f64)> = rows
+            .iter()
+            .filter(|r| r.method == m)
+            .map(|r| (x(r), r.cost))
+            .collect();
+        if !pts.is_empty() {
+            series.push(LobeSeries {
+                label: match m {
+                    "lm" => "Levenberg–Marquardt",
+                    "gn" => "Gauss–Newton + line search",
+                    "nm" => "Nelder–Mead",
+                    _ => "scipy least_squares (peer)",
+                }
+                .into(),
+                points: pts,
+                markers: true,
+            });
+        }
+    }
+    let all: Vec<(f64, f64)> = rows.iter().map(|r| (x(r), r.cost)).collect();
+    series.push(LobeSeries {
+        label: "Pareto front".into(),
+        points: pareto(&all).into_iter().map(|i| all[i]).collect(),
+        markers: false,
+    });
+    XyChart {
+        title: title.to_string(),
+        x_label: if deterministic {
+            "work: evaluations × samples".into()
+        } else {
+            "fit time (s)".into()
+        },
+        y_label: "final cost ½Σr²".into(),
+        series,
+        log_x: true,
+        log_y: true,
+        hline: None,
+    }
+}
+
+/// Markdown and CSV tables of the speed–accuracy study; times only when `with_times`.
+pub fn speed_tables(rows: &[SpeedRow], with_times: bool) -> (String, String) {
+    let mut md = String::new();
+    let mut csv = String::new();
+    let _ = writeln!(
+        md,
+        "| method | model |{} work (evaluations × samples) | cost | max rel. parameter error |",
+        if with_times { " time (s) |" } else { "" }
+    );
+    let _ = writeln!(
+        md,
+        "|---|---|{}---:|---:|---:|",
+        if with_times { "---:|" } else { "" }
+    );
+    let _ = writeln!(
+        csv,
+        "method,model,{}work,cost,param_error",
+        if with_times { "seconds," } else { "" }
+    );
+    for r in rows {
+        let pe = r.param_error.map_or("".to_string(), |e| format!("{e:.3e}"));
+        let t = if with_times {
+            format!(" {:.5} |", r.seconds)
+        } else {
+            String::new()
+        };
+        let _ = writeln!(
+            md,
+            "| {} | {} |{t} {:.0} | {:.6e} | {} |",
+            r.method, r.model, r.work, r.cost, pe
+        );
+        let t = if with_times {
+            format!("{},", r.seconds)
+        } else {
+            String::new()
+        };
+        let _ = writeln!(
+            csv,
+            "{},{},{t}{},{},{}",
+            r.method, r.model, r.work, r.cost, pe
+        );
+    }
+    (md, csv)
+}
+
+/// A sampling pattern of the stability study.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pattern {
+    /// Light and eye over the whole hemisphere.
+    Hemisphere,
+    /// The plane of incidence only, θi = 10…80°.
+    Plane,
+    /// θi, θo ≤ 45° only.
+    Near,
+    /// θi, θo ≥ 70° only (grazing).
+    Grazing,
+}
+
+impl Pattern {
+    /// All patterns.
+    pub const ALL: [Pattern; 4] = [
+        Pattern::Hemisphere,
+        Pattern::Plane,
+        Pattern::Near,
+        Pattern::Grazing,
+    ];
+
+    /// Name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Pattern::Hemisphere => "hemisphere",
+            Pattern::Plane => "plane of incidence",
+            Pattern::Near => "θ ≤ 45°",
+            Pattern::Grazing => "grazing θ ≥ 70°",
+        }
+    }
+
+    /// About `n` sample directions of the pattern (seeded).
+    pub fn directions(self, n: usize, seed: u64) -> Vec<[f64; 4]> {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let mut draw = |lo: f64, hi: f64| -> Vec<[f64; 4]> {
+            (0..n)
+                .map(|_| {
+                    let ci: f64 = rng.random_range(hi.to_radians().cos()..=lo.to_radians().cos());
+                    let co: f64 = rng.random_range(hi.to_radians().cos()..=lo.to_radians().cos());
+                    [
+                        ci.acos(),
+                        0.0,
+                        co.acos(),
+                        rng.random_range(0.0..std::f64::consts::TAU),
+                    ]
+                })
+                .collect()
+        };
+        match self {
+            Pattern::Hemisphere => draw(0.0, 88.0),
+            Pattern::Near => draw(0.0, 45.0),
+            Pattern::Grazing => draw(70.0, 88.0),
+            Pattern::Plane => {
+                Grid::Plane((1..=8).map(|k| 10.0 * k as f64).collect()).directions(seed)
+            }
+        }
+    }
+}
+
+/// One cell of the stability table.
+#[derive(Clone, Debug)]
+pub struct StabilityRow {
+    /// Relative noise σ.
+    pub noise: f64,
+    /// Sampling pattern.
+    pub pattern: Pattern,
+    /// Method.
+    pub method: Method,
+    /// Global initialisation on.
+    pub global: bool,
+    /// Starts that reached the global minimum.
+    pub hits: usize,
+    /// Starts run.
+    pub starts: usize,
+    /// Starts that ended in an error or a non-finite cost.
+    pub failures: usize,
+}
+
+/// Run the stability study around `reference`: for each noise level and pattern, synthetic
+/// data, then `starts` seeded random starts per method with and without the global
+/// initialisation. The global minimum of a configuration is the lowest cost any run found;
+/// a run reaches it when its cost is within 1e-6 relative (Nelder–Mead's own tolerance) or,
+/// for noise-free data whose minimum is 0, within 1e-12 per sample.
+pub fn stability(reference: &Model, starts: usize, seed: u64) -> Vec<StabilityRow> {
+    let noises = [0.0, 0.01, 0.05, 0.20];
+    let configs: Vec<(f64, Pattern)> = noises
+        .iter()
+        .flat_map(|&n| Pattern::ALL.iter().map(move |&p| (n, p)))
+        .collect();
+    configs
+        .par_iter()
+        .enumerate()
+        .flat_map(|(ci, &(noise, pattern))| {
+            let dirs = pattern.directions(1500, seed + ci as u64);
+            let ds = simulate(reference, &dirs, noise, seed + 100 + ci as u64);
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed + 1000 + ci as u64);
+            let start_points: Vec<Vec<(String, f64)>> = (0..starts)
+                .map(|_| {
+                    vec![
+                        ("n".into(), 10f64.powf(rng.random_range(0.02..2.7))),
+                        ("c3".into(), rng.random_range(0.02..0.99)),
+                        ("ps".into(), rng.random_range(0.0..2.0)),
+                        ("pd".into(), rng.random_range(0.0..1.0)),
+                    ]
+                })
+                .collect();
+            let mut runs: Vec<(Method, bool, Vec<f64>)> = Vec::new();
+            for method in [Method::Lm, Method::GaussNewton, Method::NelderMead] {
+                for global in [true, false] {
+                    let costs = start_points
+                        .iter()
+                        .map(|s| {
+                            let mut o = FitOptions::new(ModelKind::TorranceSparrow);
+                            o.method = method;
+                            o.local_only = !global;
+                            o.start = s.clone();
+                            o.profile = false;
+                            fit::fit(&ds, &o).map_or(f64::INFINITY, |f| f[0].cost)
+                        })
+                        .collect();
+                    runs.push((method, global, costs));
+                }
+            }
+            let best = runs
+                .iter()
+                .flat_map(|r| r.2.iter())
+                .cloned()
+                .fold(f64::INFINITY, f64::min);
+            runs.into_iter()
+                .map(|(method, global, costs)| StabilityRow {
+                    noise,
+                    pattern,
+                    method,
+                    global,
+                    // Within 1e-6 relative, or (noise-free data, cost ≈ 0) within an absolute
+                    // 1e-12 per sample of the best.
+                    hits: costs
+                        .iter()
+                        .filter(|c| (*c - best) <= 1e-6 * best.abs() + 1e-12 * ds.len() as f64)
+                        .count(),
+                    starts,
+                    failures: costs.iter().filter(|c| !c.is_finite()).count(),
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect()
+}
+
+/// Stability chart: success share per configuration, one line per method × initialisation.
+pub fn stability_chart(title: &str, rows: &[StabilityRow]) -> XyChart {
+    let mut series = Vec::new();
+    for method in [Method::Lm, Method::GaussNewton, Method::NelderMead] {
+        for global in [true, false] {
+            let pts: Vec<(f64, f64)> = rows
+                .iter()
+                .filter(|r| r.method == method && r.global == global)
+                .enumerate()
+                .map(|(k, r)| ((k + 1) as f64, r.hits as f64 / r.starts.max(1) as f64))
+                .collect();
+            series.push(LobeSeries {
+                label: format!(
+                    "{} {}",
+                    method.name(),
+                    if global {
+                        "with global init."
+                    } else {
+                        "local only"
+                    }
+                ),
+                points: pts,
+                markers: false,
+            });
+        }
+    }
+    XyChart {
+        title: title.to_string(),
+        x_label: "configuration (noise × sampling pattern, numbered as in the table)".into(),
+        y_label: "share of random starts reaching the global minimum".into(),
+        series,
+        log_x: false,
+        log_y: false,
+        hline: None,
+    }
+}
+
+/// Markdown and CSV tables of the stability study.
+pub fn stability_tables(rows: &[StabilityRow]) -> (String, String) {
+    let mut md = String::from(
+        "| # | noise | sampling | lm + init | lm local | gn + init | gn local | nm + init | nm local |\n|---:|---:|---|---:|---:|---:|---:|---:|---:|\n",
+    );
+    let mut csv = String::from("config,noise,pattern,method,global_init,hits,starts,failures\n");
+    let mut configs: Vec<(f64, Pattern)> = Vec::new();
+    for r in rows {
+        if !configs.contains(&(r.noise, r.pattern)) {
+            configs.push((r.noise, r.pattern));
+        }
+        let k = configs
+            .iter()
+            .position(|c| *c == (r.noise, r.pattern))
+            .unwrap_or(0)
+            + 1;
+        let _ = writeln!(
+            csv,
+            "{k},{},{},{},{},{},{},{}",
+            r.noise,
+            r.pattern.name(),
+            r.method.name(),
+            r.global,
+            r.hits,
+            r.starts,
+            r.failures
+        );
+    }
+    for (k, (noise, pattern)) in configs.iter().enumerate() {
+        let cell = |m: Method, g: bool| {
+            rows.iter()
+                .find(|r| {
+                    r.noise == *noise && r.pattern == *pattern && r.method == m && r.global == g
+                })
+                .map_or("–".into(), |r| {
+                    let f = if r.failures > 0 {
+                        format!(" ({} failed)", r.failures)
+                    } else {
+                        String::new()
+                    };
+                    format!("{}/{}{f}", r.hits, r.starts)
+                })
+        };
+        let _ = writeln!(
+            md,
+            "| {} | {:.0} % | {} | {} | {} | {} | {} | {} | {} |",
+            k + 1,
+            noise * 100.0,
+            pattern.name(),
+            cell(Method::Lm, true),
+            cell(Method::Lm, false),
+            cell(Method::GaussNewton, true),
+            cell(Method::GaussNewton, false),
+            cell(Method::NelderMead, true),
+            cell(Method::NelderMead, false)
+        );
+    }
+    (md, csv)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pareto_front_by_hand() {
+        let pts = [(1.0, 5.0), (2.0, 3.0), (3.0, 4.0), (4.0, 1.0), (2.0, 3.0)];
+        // (3, 4) is dominated by (2, 3); the duplicate (2, 3) points are both kept.
+        assert_eq!(pareto(&pts), vec![0, 1, 4, 3]);
+    }
+}
+
+/// Run the scipy peer script (`../shared/peers/scipy_fit.py` or any script with its
+/// interface) on channel 0 of `ds` with Python `python`; `None` when it cannot run.
+pub fn scipy_peer(ds: &Dataset, python: &str, script: &std::path::Path) -> Option<SpeedRow> {
+    if !script.is_file() {
+        return None;
+    }
+    let dir = std::env::temp_dir().join(format!("brdfit-peer-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).ok()?;
+    let csv = dir.join("data.csv");
+    let one = ds
+        .select(&crate::data::ChannelSelect::Index(0))
+        .ok()?
+        .into_brdf();
+    let mut one = one;
+    one.channels[0].name = String::new();
+    crate::data::write_csv(&one, &csv).ok()?;
+    let out = std::process::Command::new(python)
+        .arg(script)
+        .arg(&csv)
+        .args(["--loss", "log", "--repeat", "3"])
+        .output()
+        .ok();
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = out?;
+    if !out.status.success() {
+        return None;
+    }
+    let v: serde_json::Value = serde_json::from_slice(out.stdout.trim_ascii()).ok()?;
+    Some(SpeedRow {
+        method: "scipy".into(),
+        model: "torrance-sparrow (d3)".into(),
+        seconds: v["seconds"].as_f64()?,
+        work: v["nfev"].as_f64()? * v["samples"].as_f64()?,
+        cost: v["cost"].as_f64()?,
+        param_error: None,
+    })
+}

@@ -1,0 +1,72 @@
+//! Studies: the tables and charts hold what the runs produced.
+
+use brdfit::data::{self, LoadOptions};
+use brdfit::model::Model;
+use brdfit::study;
+
+#[test]
+fn speed_accuracy_covers_every_method_and_model() {
+    let ds = data::load(
+        std::path::Path::new("data/blinn-mgo.csv"),
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    let truth = study::parse_truth(&ds).expect("the synthetic file carries its truth");
+    assert_eq!(truth, Model::blinn_mgo());
+    let rows = study::speed_accuracy(&ds, Some(&truth), 1);
+    assert_eq!(rows.len(), 15);
+    // The true model family fits best, and its parameters are recovered (1 % noise).
+    let best = rows
+        .iter()
+        .min_by(|a, b| a.cost.total_cmp(&b.cost))
+        .unwrap();
+    assert_eq!(best.model, "torrance-sparrow (d3)");
+    for r in rows.iter().filter(|r| r.model == "torrance-sparrow (d3)") {
+        assert!(
+            r.param_error.unwrap() < 0.02,
+            "{}: {:?}",
+            r.method,
+            r.param_error
+        );
+    }
+    let chart = study::speed_chart("t", &rows, true);
+    let front = &chart.series.last().unwrap().points;
+    // Every front point is a row, and no row beats a front point in both work and cost.
+    for p in front {
+        assert!(rows.iter().any(|r| r.work == p.0 && r.cost == p.1));
+        assert!(!rows.iter().any(|r| r.work < p.0 && r.cost < p.1));
+    }
+    let (md, csv) = study::speed_tables(&rows, false);
+    assert_eq!(md.lines().count(), 17);
+    assert_eq!(csv.lines().count(), 16);
+    assert!(!csv.contains("seconds"));
+}
+
+#[test]
+fn stability_counts_starts_per_configuration() {
+    let rows = study::stability(&Model::blinn_mgo(), 2, 3);
+    assert_eq!(rows.len(), 16 * 6);
+    assert!(rows.iter().all(|r| r.starts == 2 && r.hits <= 2));
+    // With the global initialisation LM reaches the minimum on the full hemisphere at 1 % noise.
+    let r = rows
+        .iter()
+        .find(|r| {
+            r.noise == 0.01
+                && r.pattern == study::Pattern::Hemisphere
+                && r.method == brdfit::fit::lsq::Method::Lm
+                && r.global
+        })
+        .unwrap();
+    assert_eq!(r.hits, 2);
+    let (md, csv) = study::stability_tables(&rows);
+    assert_eq!(md.lines().count(), 18);
+    assert_eq!(csv.lines().count(), 1 + 16 * 6);
+    let chart = study::stability_chart("t", &rows);
+    assert_eq!(chart.series.len(), 6);
+    assert!(
+        chart
+            .series
+            .iter()
+            .all(|s| s.points.len() == 16 && s.points.iter().all(|p| (0.0..=1.0).contains(&p.1)))
+    );
+}
