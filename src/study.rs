@@ -465,18 +465,6 @@ pub fn stability_tables(rows: &[StabilityRow]) -> (String, String) {
     (md, csv)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn pareto_front_by_hand() {
-        let pts = [(1.0, 5.0), (2.0, 3.0), (3.0, 4.0), (4.0, 1.0), (2.0, 3.0)];
-        // (3, 4) is dominated by (2, 3); the duplicate (2, 3) points are both kept.
-        assert_eq!(pareto(&pts), vec![0, 1, 4, 3]);
-    }
-}
-
 /// Run the scipy peer script (`../shared/peers/scipy_fit.py` or any script with its
 /// interface) on channel 0 of `ds` with Python `python`; `None` when it cannot run.
 pub fn scipy_peer(ds: &Dataset, python: &str, script: &std::path::Path) -> Option<SpeedRow> {
@@ -513,4 +501,16 @@ pub fn scipy_peer(ds: &Dataset, python: &str, script: &std::path::Path) -> Optio
         cost: v["cost"].as_f64()?,
         param_error: None,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pareto_front_by_hand() {
+        let pts = [(1.0, 5.0), (2.0, 3.0), (3.0, 4.0), (4.0, 1.0), (2.0, 3.0)];
+        // (3, 4) is dominated by (2, 3); the duplicate (2, 3) points are both kept.
+        assert_eq!(pareto(&pts), vec![0, 1, 4, 3]);
+    }
 }
