@@ -17,5 +17,6 @@ pub mod fit;
 pub mod model;
 pub mod output;
 pub mod plot;
+pub mod render;
 pub mod simulate;
 pub mod study;

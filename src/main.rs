@@ -76,6 +76,29 @@ enum Command {
     /// Studies: speed against accuracy of every method × model, and stability from random starts.
     #[command(subcommand)]
     Study(StudyCommand),
+    /// Render a scene (TOML) with Whitted's ray tracer, or Blinn's Figure 7 with `fig7`.
+    #[command(
+        after_help = "Examples:\n  brdfit render data/scenes/mitsuba-front.toml -o out.png\n  brdfit render fig7 --aluminium al.json --mgo mgo.json -o reports/fig7"
+    )]
+    Render {
+        /// The scene file, or `fig7` for Blinn's Figure 7 matrix.
+        scene: String,
+        /// Output: an image path for a scene (PNG; the EXR is written beside it), a directory for fig7.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// fig7: fit JSON for the aluminium object (default: Blinn's ps .4 pd .6 n 200 c3 .5).
+        #[arg(long)]
+        aluminium: Option<PathBuf>,
+        /// fig7: fit JSON for the magnesium-oxide object (default: Blinn's ps .667 pd .333 n 1.8 c3 .35).
+        #[arg(long)]
+        mgo: Option<PathBuf>,
+        /// fig7: image resolution (square).
+        #[arg(long, default_value_t = 512)]
+        res: u32,
+        /// No progress bar.
+        #[arg(long, short)]
+        quiet: bool,
+    },
     /// Convert between formats: any → brdfit CSV, CSV (or any) → MERL .binary.
     #[command(
         after_help = "Example:\n  brdfit convert data/cayman.astm --channel cie-y -o cayman.csv"
@@ -721,6 +744,21 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Fit { fit, load } => run_fit(&fit, &load),
+        Command::Render {
+            scene,
+            output,
+            aluminium,
+            mgo,
+            res,
+            quiet,
+        } => run_render(
+            &scene,
+            &output,
+            aluminium.as_deref(),
+            mgo.as_deref(),
+            res,
+            quiet,
+        ),
         Command::Plot(cmd) => run_plot(cmd),
         Command::Study(cmd) => run_study(cmd),
         Command::Convert {
@@ -843,6 +881,79 @@ fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
         brdfit::output::write_bytes_atomic(path, s.as_bytes())
             .with_context(|| format!("writing {}", path.display()))?;
     }
+    Ok(())
+}
+
+fn ts_model_from(fit: Option<&Path>, default: Model) -> Result<Model> {
+    match fit {
+        None => Ok(default),
+        Some(p) => {
+            let r = read_fits(p)?.remove(0);
+            if r.model != ModelKind::TorranceSparrow {
+                bail!(
+                    "{}: fig7 needs a torrance-sparrow fit, this is {}\n  fix: fit with --model torrance-sparrow",
+                    p.display(),
+                    r.model
+                );
+            }
+            Ok(r.model_for(0))
+        }
+    }
+}
+
+fn run_render(
+    scene: &str,
+    output: &Path,
+    al: Option<&Path>,
+    mgo: Option<&Path>,
+    res: u32,
+    quiet: bool,
+) -> Result<()> {
+    use brdfit::render;
+    if !(1..=8192).contains(&res) {
+        bail!("--res {res} is out of range\n  fix: give a resolution between 1 and 8192");
+    }
+    if scene == "fig7" {
+        let al = ts_model_from(al, Model::blinn_aluminium())?;
+        let mgo = ts_model_from(mgo, Model::blinn_mgo())?;
+        let t = std::time::Instant::now();
+        let imgs = render::fig7_images(
+            &al,
+            &mgo,
+            res,
+            render::AntiAlias::Adaptive {
+                threshold: 0.02,
+                max_level: 3,
+            },
+        );
+        for (name, img) in &imgs {
+            render::save(img, &output.join(name))?;
+        }
+        brdfit::output::write_bytes_atomic(
+            &output.join("fig7.png"),
+            &render::contact_sheet(&imgs)?,
+        )?;
+        if !quiet {
+            eprintln!(
+                "rendered 8 images {res}×{res} in {:.2} s",
+                t.elapsed().as_secs_f64()
+            );
+        }
+        return Ok(());
+    }
+    let s = render::scene::load_scene(Path::new(scene))?;
+    let bar = if quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new(s.camera.height as u64)
+    };
+    let img = s.render(&|| bar.inc(1));
+    bar.finish_and_clear();
+    let base = match output.extension().and_then(|e| e.to_str()) {
+        Some("png" | "exr") => output.with_extension(""),
+        _ => output.to_path_buf(),
+    };
+    render::save(&img, &base)?;
     Ok(())
 }
 

@@ -14,6 +14,11 @@ use std::path::{Path, PathBuf};
 
 static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
 
+/// Register the embedded font with plotters (once per process).
+pub fn register_font_once() {
+    register_font();
+}
+
 fn register_font() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
@@ -349,20 +354,13 @@ pub fn blinn_figure_models() -> (Model, Model) {
     // β with cos^c1 β = ½.
     let beta = (0.5f64).powf(1.0 / c1).acos();
     let c3 = Distribution::D3.param_from_beta(beta);
-    let (n, ps, pd) = (1.8, 0.667, 0.333);
     let ts = Model::new(
         ModelKind::TorranceSparrow,
         Distribution::D3,
-        &[n, c3, ps, pd],
+        &[1.8, c3, 0.667, 0.333],
     )
     .expect("valid constants");
-    let phong = Model::new(
-        ModelKind::BlinnPhong,
-        Distribution::D3,
-        &[c1, ps * crate::model::f0_from_n(n), pd],
-    )
-    .expect("valid constants");
-    (phong, ts)
+    (crate::model::equal_beta_phong(&ts), ts)
 }
 
 /// Blinn's Figure 5 (θi = 30°) or 6 (θi = 70°) as a chart: Phong and Torrance–Sparrow side by side.

@@ -1,0 +1,964 @@
+//! A Whitted-style ray tracer (Whitted 1980) shading with the fitted reflection models.
+//!
+//! - Primary rays, one shadow ray per light whose direction faces the surface, recursive mirror
+//!   (ks) and refraction (kt, Snell's law, total internal reflection) rays, Whitted's eq. (2):
+//!   `I = I_a + Σ_j local_j + ks S + kt T`. Recursion stops at `max_depth` or when a ray's
+//!   weight falls below `min_weight`; no ray is traced that the scene cannot use (no
+//!   refraction ray without kt > 0, no mirror ray without ks > 0, no shadow ray toward a light
+//!   behind the surface).
+//! - Local model: Blinn's intensity for a unit light, `i = pd N·L + ps D G F/(N·E)` (or any
+//!   [`crate::model::Model`]), turned into radiance `L = (i/π)·E_light`, i.e. f_r cosθ E, so a
+//!   Lambertian surface of albedo pd under irradiance E has radiance pd E/π. The diffuse term is
+//!   coloured by the material (and texture), the highlight is white, as Blinn prescribes.
+//!   Ambient: a uniform ambient radiance A adds pd·A·colour.
+//! - Anti-aliasing as Whitted describes: samples at pixel corners; a pixel is subdivided (up to
+//!   `max_level`) only where its corner values differ beyond `threshold`, a different object is
+//!   hit, or a ray passes within a pixel footprint of an object's bounding sphere without
+//!   hitting it (a small object may fall between the corners). Uniform n×n supersampling and
+//!   single centre samples are there for comparison.
+//! - Bounding spheres for every object and a BVH for triangle meshes; rayon over rows; linear
+//!   f32 OpenEXR and 8-bit sRGB PNG output; deterministic.
+
+pub mod scene;
+
+use crate::model::{Distribution, Geometry, Model, ModelKind};
+use glam::DVec3;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// A ray with unit direction.
+#[derive(Clone, Copy, Debug)]
+pub struct Ray {
+    /// Origin.
+    pub o: DVec3,
+    /// Unit direction.
+    pub d: DVec3,
+}
+
+/// A triangle mesh with a bounding-volume hierarchy.
+#[derive(Clone, Debug)]
+pub struct Mesh {
+    /// Triangles (vertex positions).
+    pub tris: Vec<[DVec3; 3]>,
+    nodes: Vec<Node>,
+    order: Vec<u32>,
+}
+
+#[derive(Clone, Debug)]
+struct Node {
+    min: DVec3,
+    max: DVec3,
+    /// Leaf: first index into `order` and count; inner: left child index (right = left + 1), count 0.
+    start: u32,
+    count: u32,
+}
+
+impl Mesh {
+    /// Build the BVH (median split on the longest axis, leaves of ≤ 4 triangles). Degenerate
+    /// triangles (zero area) are dropped.
+    pub fn new(tris: Vec<[DVec3; 3]>) -> Mesh {
+        let tris: Vec<[DVec3; 3]> = tris
+            .into_iter()
+            .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]).length_squared() > 1e-24)
+            .collect();
+        let mut m = Mesh {
+            order: (0..tris.len() as u32).collect(),
+            tris,
+            nodes: Vec::new(),
+        };
+        if !m.tris.is_empty() {
+            m.nodes.push(Node {
+                min: DVec3::ZERO,
+                max: DVec3::ZERO,
+                start: 0,
+                count: 0,
+            });
+            m.build(0, 0, m.tris.len());
+        }
+        m
+    }
+
+    fn bounds(&self, a: usize, b: usize) -> (DVec3, DVec3) {
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for &i in &self.order[a..b] {
+            for v in self.tris[i as usize] {
+                lo = lo.min(v);
+                hi = hi.max(v);
+            }
+        }
+        (lo, hi)
+    }
+
+    fn build(&mut self, node: usize, a: usize, b: usize) {
+        let (lo, hi) = self.bounds(a, b);
+        self.nodes[node].min = lo;
+        self.nodes[node].max = hi;
+        if b - a <= 4 {
+            self.nodes[node].start = a as u32;
+            self.nodes[node].count = (b - a) as u32;
+            return;
+        }
+        let ext = hi - lo;
+        let axis = if ext.x >= ext.y && ext.x >= ext.z {
+            0
+        } else if ext.y >= ext.z {
+            1
+        } else {
+            2
+        };
+        let tris = &self.tris;
+        let centroid = |i: u32| {
+            let t = tris[i as usize];
+            (t[0] + t[1] + t[2])[axis]
+        };
+        let mid = (a + b) / 2;
+        self.order[a..b]
+            .select_nth_unstable_by(mid - a, |x, y| centroid(*x).total_cmp(&centroid(*y)));
+        let left = self.nodes.len();
+        for _ in 0..2 {
+            self.nodes.push(Node {
+                min: DVec3::ZERO,
+                max: DVec3::ZERO,
+                start: 0,
+                count: 0,
+            });
+        }
+        self.nodes[node].start = left as u32;
+        self.nodes[node].count = 0;
+        self.build(left, a, mid);
+        self.build(left + 1, mid, b);
+    }
+
+    fn hit_box(r: &Ray, inv: DVec3, lo: DVec3, hi: DVec3, tmax: f64) -> bool {
+        let t0 = (lo - r.o) * inv;
+        let t1 = (hi - r.o) * inv;
+        let tmin = t0.min(t1).max_element().max(0.0);
+        let tmx = t0.max(t1).min_element().min(tmax);
+        tmin <= tmx
+    }
+
+    /// Nearest hit: (t, geometric normal).
+    pub fn intersect(&self, r: &Ray, tmax: f64) -> Option<(f64, DVec3)> {
+        if self.nodes.is_empty() {
+            return None;
+        }
+        let inv = r.d.recip();
+        let mut best: Option<(f64, DVec3)> = None;
+        let mut stack = vec![0usize];
+        while let Some(n) = stack.pop() {
+            let node = &self.nodes[n];
+            let limit = best.map_or(tmax, |b| b.0);
+            if !Self::hit_box(r, inv, node.min, node.max, limit) {
+                continue;
+            }
+            if node.count == 0 {
+                stack.push(node.start as usize);
+                stack.push(node.start as usize + 1);
+                continue;
+            }
+            for &i in &self.order[node.start as usize..(node.start + node.count) as usize] {
+                let t = self.tris[i as usize];
+                // Möller–Trumbore.
+                let e1 = t[1] - t[0];
+                let e2 = t[2] - t[0];
+                let p = r.d.cross(e2);
+                let det = e1.dot(p);
+                if det.abs() < 1e-14 {
+                    continue;
+                }
+                let inv_det = 1.0 / det;
+                let s = r.o - t[0];
+                let u = s.dot(p) * inv_det;
+                if !(0.0..=1.0).contains(&u) {
+                    continue;
+                }
+                let q = s.cross(e1);
+                let v = r.d.dot(q) * inv_det;
+                if v < 0.0 || u + v > 1.0 {
+                    continue;
+                }
+                let tt = e2.dot(q) * inv_det;
+                if tt > 1e-9 && tt < best.map_or(tmax, |b| b.0) {
+                    best = Some((tt, e1.cross(e2).normalize()));
+                }
+            }
+        }
+        best
+    }
+}
+
+/// Geometry of an object.
+#[derive(Clone, Debug)]
+pub enum Shape {
+    /// Sphere: centre, radius.
+    Sphere {
+        /// Centre.
+        center: DVec3,
+        /// Radius.
+        radius: f64,
+    },
+    /// Plane through `point` with unit `normal`, optionally limited to a square of half-size
+    /// `half` around `point` (texture coordinates along `u`, `v`).
+    Plane {
+        /// A point on the plane.
+        point: DVec3,
+        /// Unit normal.
+        normal: DVec3,
+        /// Half-size of the square, or unbounded.
+        half: Option<f64>,
+        /// First in-plane axis (texture u).
+        u: DVec3,
+        /// Second in-plane axis (texture v).
+        v: DVec3,
+    },
+    /// Triangle mesh.
+    Mesh(Mesh),
+}
+
+/// An object: shape, material index and its bounding sphere.
+#[derive(Clone, Debug)]
+pub struct Object {
+    /// Shape.
+    pub shape: Shape,
+    /// Index into the scene's materials.
+    pub material: usize,
+    /// Bounding sphere (centre, radius); ∞ radius for unbounded planes.
+    pub bound: (DVec3, f64),
+}
+
+impl Object {
+    /// Object with its bounding sphere computed.
+    pub fn new(shape: Shape, material: usize) -> Object {
+        let bound = match &shape {
+            Shape::Sphere { center, radius } => (*center, *radius),
+            Shape::Plane { point, half, .. } => (
+                *point,
+                half.map_or(f64::INFINITY, |h| h * std::f64::consts::SQRT_2),
+            ),
+            Shape::Mesh(m) => {
+                let (lo, hi) = if m.tris.is_empty() {
+                    (DVec3::ZERO, DVec3::ZERO)
+                } else {
+                    m.bounds(0, m.tris.len())
+                };
+                let c = 0.5 * (lo + hi);
+                (c, (hi - c).length())
+            }
+        };
+        Object {
+            shape,
+            material,
+            bound,
+        }
+    }
+
+    /// Nearest hit along `r` before `tmax`: (t, outward normal, texture (u, v)).
+    pub fn intersect(&self, r: &Ray, tmax: f64) -> Option<(f64, DVec3, (f64, f64))> {
+        // Bounding-sphere test first (Whitted's bounding volumes).
+        let (c, rad) = self.bound;
+        if rad.is_finite() {
+            let oc = r.o - c;
+            let b = oc.dot(r.d);
+            let disc = b * b - (oc.length_squared() - rad * rad);
+            if disc < 0.0 || -b + disc.max(0.0).sqrt() < 0.0 {
+                return None;
+            }
+        }
+        match &self.shape {
+            Shape::Sphere { center, radius } => {
+                let oc = r.o - *center;
+                let b = oc.dot(r.d);
+                let disc = b * b - (oc.length_squared() - radius * radius);
+                if disc < 0.0 {
+                    return None;
+                }
+                let s = disc.sqrt();
+                let eps = 1e-9 * radius.max(1.0);
+                let t = if -b - s > eps { -b - s } else { -b + s };
+                if t <= eps || t >= tmax {
+                    return None;
+                }
+                let n = (r.o + t * r.d - *center) / *radius;
+                let uv = (
+                    0.5 + n.z.atan2(n.x) / std::f64::consts::TAU,
+                    n.y.clamp(-1.0, 1.0).acos() / std::f64::consts::PI,
+                );
+                Some((t, n, uv))
+            }
+            Shape::Plane {
+                point,
+                normal,
+                half,
+                u,
+                v,
+            } => {
+                let den = normal.dot(r.d);
+                if den.abs() < 1e-14 {
+                    return None;
+                }
+                let t = (*point - r.o).dot(*normal) / den;
+                if t <= 1e-9 || t >= tmax {
+                    return None;
+                }
+                let q = r.o + t * r.d - *point;
+                let (a, b) = (q.dot(*u), q.dot(*v));
+                if let Some(h) = half
+                    && (a.abs() > *h || b.abs() > *h)
+                {
+                    return None;
+                }
+                Some((t, *normal, (a, b)))
+            }
+            Shape::Mesh(m) => m.intersect(r, tmax).map(|(t, n)| (t, n, (0.0, 0.0))),
+        }
+    }
+}
+
+/// A light source.
+#[derive(Clone, Debug)]
+pub enum Light {
+    /// Point light with 1/r² falloff: position, colour × intensity (radiant intensity).
+    Point {
+        /// Position.
+        position: DVec3,
+        /// Colour × intensity.
+        intensity: DVec3,
+    },
+    /// Directional light: unit direction *toward* the light, colour × irradiance.
+    Directional {
+        /// Unit direction toward the light.
+        direction: DVec3,
+        /// Colour × irradiance.
+        irradiance: DVec3,
+    },
+}
+
+/// A checker texture on the diffuse colour: squares of side `size` in texture units.
+#[derive(Clone, Copy, Debug)]
+pub struct Checker {
+    /// Square size.
+    pub size: f64,
+    /// Colour of even squares.
+    pub color0: DVec3,
+    /// Colour of odd squares.
+    pub color1: DVec3,
+}
+
+impl Checker {
+    /// Colour at texture coordinates (u, v).
+    pub fn at(&self, (u, v): (f64, f64)) -> DVec3 {
+        let k = (u / self.size).floor() as i64 + (v / self.size).floor() as i64;
+        if k.rem_euclid(2) == 0 {
+            self.color0
+        } else {
+            self.color1
+        }
+    }
+}
+
+/// Blinn's texture-modulated roughness (Figure 8): t(u, v) = ½ + ½ sin(2π u f) sin(2π v f),
+/// C3 = Cmin + (1 − Cmin) t, D3 normalised by Cmin ([`crate::model::d3_textured`]).
+#[derive(Clone, Copy, Debug)]
+pub struct RoughnessTexture {
+    /// Minimum c3 over the surface.
+    pub cmin: f64,
+    /// Spatial frequency of the pattern (cycles per texture unit).
+    pub frequency: f64,
+}
+
+/// A material: a reflection model plus Whitted's mirror and transmission coefficients.
+#[derive(Clone, Debug)]
+pub struct Material {
+    /// Name.
+    pub name: String,
+    /// The local reflection model (f_r, with its pd).
+    pub model: Model,
+    /// Diffuse colour (multiplies the pd term; the highlight stays white).
+    pub color: DVec3,
+    /// Optional checker on the diffuse colour.
+    pub checker: Option<Checker>,
+    /// Whitted's ks: weight of the mirror ray.
+    pub ks: f64,
+    /// Whitted's kt: weight of the refracted ray.
+    pub kt: f64,
+    /// Index of refraction for the refracted ray.
+    pub ior: f64,
+    /// Optional roughness texture (torrance-sparrow D3 only).
+    pub roughness: Option<RoughnessTexture>,
+}
+
+impl Material {
+    fn pd(&self) -> f64 {
+        let names = self.model.param_names();
+        names
+            .iter()
+            .position(|n| *n == "pd")
+            .map_or(0.0, |i| self.model.p[i])
+    }
+
+    /// Blinn's specular intensity for a unit light (the model with pd = 0).
+    fn specular(&self, g: &Geometry, uv: (f64, f64)) -> f64 {
+        if let (Some(rt), ModelKind::TorranceSparrow, Distribution::D3) =
+            (self.roughness, self.model.kind, self.model.dist)
+        {
+            if !g.visible() {
+                return 0.0;
+            }
+            let t = 0.5
+                + 0.5
+                    * (std::f64::consts::TAU * uv.0 * rt.frequency).sin()
+                    * (std::f64::consts::TAU * uv.1 * rt.frequency).sin();
+            let d = crate::model::d3_textured(g.nh, rt.cmin, t);
+            let (n, ps) = (self.model.p[0], self.model.p[2]);
+            return ps * d * crate::model::fresnel(n, g.eh) * g.g_ne;
+        }
+        let pd = self.pd();
+        (self.model.intensity(g) - pd * g.nl.max(0.0)).max(0.0)
+    }
+}
+
+/// Camera: look-at with a horizontal field of view.
+#[derive(Clone, Copy, Debug)]
+pub struct Camera {
+    /// Eye position.
+    pub eye: DVec3,
+    /// Point looked at.
+    pub target: DVec3,
+    /// Up vector.
+    pub up: DVec3,
+    /// Horizontal field of view, degrees.
+    pub fov_deg: f64,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+}
+
+impl Camera {
+    /// The primary ray through continuous image position (x, y) ∈ [0, W] × [0, H].
+    pub fn ray(&self, x: f64, y: f64) -> Ray {
+        let f = (self.target - self.eye).normalize();
+        let r = f.cross(self.up).normalize();
+        let u = r.cross(f);
+        let tx = (0.5 * self.fov_deg.to_radians()).tan();
+        let ty = tx * self.height as f64 / self.width as f64;
+        let sx = (2.0 * x / self.width as f64 - 1.0) * tx;
+        let sy = (1.0 - 2.0 * y / self.height as f64) * ty;
+        Ray {
+            o: self.eye,
+            d: (f + sx * r + sy * u).normalize(),
+        }
+    }
+}
+
+/// Anti-aliasing mode.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AntiAlias {
+    /// One ray through each pixel centre.
+    None,
+    /// n × n regular samples per pixel, averaged (box filter).
+    Uniform(u32),
+    /// Whitted's adaptive corner sampling: subdivide where corners differ by more than
+    /// `threshold` (in display units) or hit different objects, up to `max_level`.
+    Adaptive {
+        /// Display-value difference that triggers subdivision.
+        threshold: f64,
+        /// Maximum subdivision depth (a pixel becomes at most 2^level × 2^level squares).
+        max_level: u32,
+    },
+}
+
+/// A scene ready to render.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// Camera.
+    pub camera: Camera,
+    /// Objects.
+    pub objects: Vec<Object>,
+    /// Materials.
+    pub materials: Vec<Material>,
+    /// Lights.
+    pub lights: Vec<Light>,
+    /// Uniform ambient radiance (colour).
+    pub ambient: DVec3,
+    /// Background radiance.
+    pub background: DVec3,
+    /// Maximum ray-tree depth (1 = primary rays only).
+    pub max_depth: u32,
+    /// Rays whose weight falls below this are not traced.
+    pub min_weight: f64,
+    /// Anti-aliasing.
+    pub antialias: AntiAlias,
+}
+
+/// Ray counts of a render.
+#[derive(Debug, Default)]
+pub struct Counters {
+    /// Primary rays.
+    pub primary: AtomicU64,
+    /// Shadow rays.
+    pub shadow: AtomicU64,
+    /// Mirror rays.
+    pub reflected: AtomicU64,
+    /// Refracted rays.
+    pub refracted: AtomicU64,
+}
+
+/// A rendered image: linear RGB, row-major, and the ray counts.
+#[derive(Clone, Debug)]
+pub struct Image {
+    /// Width.
+    pub width: u32,
+    /// Height.
+    pub height: u32,
+    /// Linear RGB radiance per pixel.
+    pub pixels: Vec<[f32; 3]>,
+    /// Primary, shadow, reflected and refracted rays.
+    pub rays: [u64; 4],
+}
+
+impl Image {
+    /// Total rays traced.
+    pub fn total_rays(&self) -> u64 {
+        self.rays.iter().sum()
+    }
+
+    /// Primary rays per pixel.
+    pub fn primary_per_pixel(&self) -> f64 {
+        self.rays[0] as f64 / (self.width as f64 * self.height as f64).max(1.0)
+    }
+
+    /// Pixel (x, y).
+    pub fn at(&self, x: u32, y: u32) -> [f32; 3] {
+        self.pixels[(y * self.width + x) as usize]
+    }
+}
+
+/// Mirror direction of `d` about `n`.
+pub fn reflect(d: DVec3, n: DVec3) -> DVec3 {
+    d - 2.0 * d.dot(n) * n
+}
+
+/// Refraction of unit `d` at unit normal `n` (facing against `d`) with relative index
+/// `eta` = n1/n2 (Snell's law); `None` on total internal reflection.
+pub fn refract(d: DVec3, n: DVec3, eta: f64) -> Option<DVec3> {
+    let cos_i = -d.dot(n);
+    let sin2_t = eta * eta * (1.0 - cos_i * cos_i);
+    if sin2_t > 1.0 {
+        return None;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    Some((eta * d + (eta * cos_i - cos_t) * n).normalize())
+}
+
+/// One traced sample: radiance and the object hit first (for the anti-aliasing test).
+#[derive(Clone, Copy, Debug)]
+struct Sample {
+    color: DVec3,
+    object: i64,
+    near_miss: bool,
+}
+
+impl Scene {
+    /// Nearest hit: (object index, t, outward normal, uv).
+    pub fn intersect(&self, r: &Ray, tmax: f64) -> Option<(usize, f64, DVec3, (f64, f64))> {
+        let mut best: Option<(usize, f64, DVec3, (f64, f64))> = None;
+        for (i, o) in self.objects.iter().enumerate() {
+            let limit = best.map_or(tmax, |b| b.1);
+            if let Some((t, n, uv)) = o.intersect(r, limit) {
+                best = Some((i, t, n, uv));
+            }
+        }
+        best
+    }
+
+    fn occluded(&self, r: &Ray, tmax: f64) -> bool {
+        self.objects.iter().any(|o| o.intersect(r, tmax).is_some())
+    }
+
+    /// Radiance along `r` (Whitted's eq. 2), recursing up to `max_depth`.
+    pub fn trace(&self, r: &Ray, depth: u32, weight: f64, c: &Counters) -> DVec3 {
+        let Some((oi, t, n_out, uv)) = self.intersect(r, f64::INFINITY) else {
+            return self.background;
+        };
+        let obj = &self.objects[oi];
+        let m = &self.materials[obj.material];
+        let p = r.o + t * r.d;
+        let inside = n_out.dot(r.d) > 0.0;
+        let n = if inside { -n_out } else { n_out };
+        let e = -r.d;
+        let scale = p.abs().max_element().max(1.0);
+        let eps = 1e-7 * scale;
+        let albedo = m.checker.map_or(m.color, |ch| ch.at(uv) * m.color);
+        let pd = m.pd();
+        let mut out = self.ambient * albedo * pd;
+        for light in &self.lights {
+            let (ldir, dist, irr) = match light {
+                Light::Point {
+                    position,
+                    intensity,
+                } => {
+                    let v = *position - p;
+                    let d2 = v.length_squared();
+                    (v / d2.sqrt(), d2.sqrt(), *intensity / d2.max(1e-300))
+                }
+                Light::Directional {
+                    direction,
+                    irradiance,
+                } => (*direction, f64::INFINITY, *irradiance),
+            };
+            if n.dot(ldir) <= 0.0 || n.dot(e) <= 0.0 {
+                continue;
+            }
+            c.shadow.fetch_add(1, Ordering::Relaxed);
+            if self.occluded(
+                &Ray {
+                    o: p + eps * n,
+                    d: ldir,
+                },
+                dist - 2.0 * eps,
+            ) {
+                continue;
+            }
+            let g = Geometry::from_vectors(n.to_array(), ldir.to_array(), e.to_array());
+            let i_d = pd * g.nl;
+            let i_s = m.specular(&g, uv);
+            out += (albedo * i_d + DVec3::splat(i_s)) * irr * std::f64::consts::FRAC_1_PI;
+        }
+        if depth + 1 < self.max_depth {
+            if m.ks > 0.0 && weight * m.ks >= self.min_weight {
+                c.reflected.fetch_add(1, Ordering::Relaxed);
+                let d = reflect(r.d, n);
+                out += m.ks * self.trace(&Ray { o: p + eps * n, d }, depth + 1, weight * m.ks, c);
+            }
+            if m.kt > 0.0 && weight * m.kt >= self.min_weight {
+                let eta = if inside { m.ior } else { 1.0 / m.ior };
+                match refract(r.d, n, eta) {
+                    Some(d) => {
+                        c.refracted.fetch_add(1, Ordering::Relaxed);
+                        out += m.kt
+                            * self.trace(&Ray { o: p - eps * n, d }, depth + 1, weight * m.kt, c);
+                    }
+                    None => {
+                        // Total internal reflection: the transmitted share is reflected.
+                        c.reflected.fetch_add(1, Ordering::Relaxed);
+                        let d = reflect(r.d, n);
+                        out += m.kt
+                            * self.trace(&Ray { o: p + eps * n, d }, depth + 1, weight * m.kt, c);
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    fn sample(&self, x: f64, y: f64, footprint: f64, c: &Counters) -> Sample {
+        c.primary.fetch_add(1, Ordering::Relaxed);
+        let r = self.camera.ray(x, y);
+        let hit = self.intersect(&r, f64::INFINITY);
+        // Whitted's small-object test: the ray passes within a pixel footprint of a bounding
+        // sphere it does not hit.
+        let near_miss = self.objects.iter().enumerate().any(|(i, o)| {
+            let (ctr, rad) = o.bound;
+            if !rad.is_finite() || hit.is_some_and(|h| h.0 == i) {
+                return false;
+            }
+            let v = ctr - r.o;
+            let t = v.dot(r.d);
+            t > 0.0 && (v - t * r.d).length() < rad + footprint * t && (v - t * r.d).length() > rad
+        });
+        Sample {
+            color: self.trace(&r, 0, 1.0, c),
+            object: hit.map_or(-1, |h| h.0 as i64),
+            near_miss,
+        }
+    }
+
+    /// Render the image (rayon over rows); `progress` is called once per finished row.
+    pub fn render(&self, progress: &(dyn Fn() + Sync)) -> Image {
+        let (w, h) = (self.camera.width, self.camera.height);
+        let c = Counters::default();
+        let footprint = (0.5 * self.camera.fov_deg.to_radians()).tan() * 2.0 / w.max(1) as f64;
+        let pixels: Vec<[f32; 3]> = match self.antialias {
+            AntiAlias::None | AntiAlias::Uniform(_) => {
+                let n = match self.antialias {
+                    AntiAlias::Uniform(n) => n.max(1),
+                    _ => 1,
+                };
+                (0..h)
+                    .into_par_iter()
+                    .flat_map_iter(|y| {
+                        let row: Vec<[f32; 3]> = (0..w)
+                            .map(|x| {
+                                let mut sum = DVec3::ZERO;
+                                for j in 0..n {
+                                    for i in 0..n {
+                                        let sx = x as f64 + (i as f64 + 0.5) / n as f64;
+                                        let sy = y as f64 + (j as f64 + 0.5) / n as f64;
+                                        sum += self.sample(sx, sy, footprint, &c).color;
+                                    }
+                                }
+                                let v = sum / (n * n) as f64;
+                                [v.x as f32, v.y as f32, v.z as f32]
+                            })
+                            .collect();
+                        progress();
+                        row
+                    })
+                    .collect()
+            }
+            AntiAlias::Adaptive {
+                threshold,
+                max_level,
+            } => {
+                // Corner samples, shared by neighbouring pixels.
+                let corners: Vec<Sample> = (0..=h)
+                    .into_par_iter()
+                    .flat_map_iter(|y| {
+                        (0..=w)
+                            .map(|x| self.sample(x as f64, y as f64, footprint, &c))
+                            .collect::<Vec<_>>()
+                    })
+                    .collect();
+                let cw = (w + 1) as usize;
+                (0..h)
+                    .into_par_iter()
+                    .flat_map_iter(|y| {
+                        let row: Vec<[f32; 3]> = (0..w)
+                            .map(|x| {
+                                let (xi, yi) = (x as usize, y as usize);
+                                let q = [
+                                    corners[yi * cw + xi],
+                                    corners[yi * cw + xi + 1],
+                                    corners[(yi + 1) * cw + xi],
+                                    corners[(yi + 1) * cw + xi + 1],
+                                ];
+                                let v = self.adaptive(
+                                    x as f64, y as f64, 1.0, q, 0, threshold, max_level, footprint,
+                                    &c,
+                                );
+                                [v.x as f32, v.y as f32, v.z as f32]
+                            })
+                            .collect();
+                        progress();
+                        row
+                    })
+                    .collect()
+            }
+        };
+        Image {
+            width: w,
+            height: h,
+            pixels,
+            rays: [
+                c.primary.load(Ordering::Relaxed),
+                c.shadow.load(Ordering::Relaxed),
+                c.reflected.load(Ordering::Relaxed),
+                c.refracted.load(Ordering::Relaxed),
+            ],
+        }
+    }
+
+    /// Whitted's recursive subdivision of the square at (x, y) of side `s` with corner samples
+    /// q = [top-left, top-right, bottom-left, bottom-right].
+    #[allow(clippy::too_many_arguments)]
+    fn adaptive(
+        &self,
+        x: f64,
+        y: f64,
+        s: f64,
+        q: [Sample; 4],
+        level: u32,
+        threshold: f64,
+        max_level: u32,
+        footprint: f64,
+        c: &Counters,
+    ) -> DVec3 {
+        let disp = |v: DVec3| v.clamp(DVec3::ZERO, DVec3::ONE).powf(1.0 / 2.2);
+        let d0 = disp(q[0].color);
+        let differ = q.iter().any(|a| {
+            (disp(a.color) - d0).abs().max_element() > threshold
+                || a.object != q[0].object
+                || a.near_miss
+        });
+        if !differ || level >= max_level {
+            return (q[0].color + q[1].color + q[2].color + q[3].color) * 0.25;
+        }
+        let h = 0.5 * s;
+        let m = |dx: f64, dy: f64| self.sample(x + dx, y + dy, footprint * s, c);
+        let (top, left, mid, right, bottom) = (m(h, 0.0), m(0.0, h), m(h, h), m(s, h), m(h, s));
+        let sub = |xx, yy, qq| {
+            self.adaptive(xx, yy, h, qq, level + 1, threshold, max_level, footprint, c)
+        };
+        0.25 * (sub(x, y, [q[0], top, left, mid])
+            + sub(x + h, y, [top, q[1], mid, right])
+            + sub(x, y + h, [left, mid, q[2], bottom])
+            + sub(x + h, y + h, [mid, right, bottom, q[3]]))
+    }
+}
+
+/// sRGB transfer function of a linear value in [0, 1].
+pub fn srgb(v: f32) -> u8 {
+    let v = v.clamp(0.0, 1.0);
+    let e = if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    };
+    (e * 255.0 + 0.5) as u8
+}
+
+/// 8-bit sRGB bytes of a linear image.
+pub fn to_srgb8(img: &Image) -> Vec<u8> {
+    img.pixels
+        .iter()
+        .flat_map(|p| [srgb(p[0]), srgb(p[1]), srgb(p[2])])
+        .collect()
+}
+
+/// Write `base.png` (sRGB 8-bit) and `base.exr` (linear f32), atomically.
+pub fn save(img: &Image, base: &std::path::Path) -> anyhow::Result<()> {
+    let png = crate::plot::encode_png(img.width, img.height, &to_srgb8(img))?;
+    crate::output::write_bytes_atomic(&base.with_extension("png"), &png)?;
+    let mut exr = std::io::Cursor::new(Vec::new());
+    let data: Vec<f32> = img.pixels.iter().flatten().copied().collect();
+    let buf = image::Rgb32FImage::from_raw(img.width, img.height, data)
+        .ok_or_else(|| anyhow::anyhow!("image size mismatch"))?;
+    image::DynamicImage::ImageRgb32F(buf)
+        .write_to(&mut exr, image::ImageFormat::OpenExr)
+        .map_err(|e| anyhow::anyhow!("EXR encoding failed: {e}"))?;
+    crate::output::write_bytes_atomic(&base.with_extension("exr"), exr.get_ref())?;
+    Ok(())
+}
+
+/// Root-mean-square difference of two linear images (all channels).
+pub fn rmse(a: &Image, b: &Image) -> f64 {
+    let n = a.pixels.len().min(b.pixels.len()).max(1);
+    let s: f64 = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .map(|(p, q)| (0..3).map(|k| ((p[k] - q[k]) as f64).powi(2)).sum::<f64>())
+        .sum();
+    (s / (3 * n) as f64).sqrt()
+}
+
+/// The eight images of Blinn's Figure 7: `{aluminium,mgo}-{front,edge}-{phong,ts}`, with the
+/// Torrance–Sparrow models given and Phong with equal β ([`crate::model::equal_beta_phong`]).
+pub fn fig7_images(
+    aluminium: &Model,
+    mgo: &Model,
+    res: u32,
+    aa: AntiAlias,
+) -> Vec<(String, Image)> {
+    let mut out = Vec::new();
+    for (mat, ts) in [("aluminium", aluminium), ("mgo", mgo)] {
+        for (lname, lighting) in [
+            ("front", scene::Lighting::Front),
+            ("edge", scene::Lighting::Edge),
+        ] {
+            for (mname, m) in [("phong", crate::model::equal_beta_phong(ts)), ("ts", *ts)] {
+                let mut s = scene::fig7_scene(m, lighting, res);
+                s.antialias = aa;
+                out.push((format!("{mat}-{lname}-{mname}"), s.render(&|| {})));
+            }
+        }
+    }
+    out
+}
+
+/// A labelled contact sheet (PNG bytes) of Figure 7 images laid out as Blinn's figure: rows
+/// aluminium and MgO, columns front/edge × Phong/Torrance–Sparrow.
+pub fn contact_sheet(images: &[(String, Image)]) -> anyhow::Result<Vec<u8>> {
+    use plotters::prelude::*;
+    let tile = 256u32;
+    let (cols, rows) = (4u32, 2u32);
+    let (top, left, gap) = (60u32, 110u32, 8u32);
+    let (w, h) = (left + cols * (tile + gap), top + rows * (tile + gap + 24));
+    let mut buf = vec![0u8; (w * h * 3) as usize];
+    for px in buf.chunks_mut(3) {
+        px.copy_from_slice(&[255, 255, 255]);
+    }
+    for (k, (_, img)) in images.iter().enumerate().take(8) {
+        let (r, c) = (k as u32 / 4, k as u32 % 4);
+        let (x0, y0) = (left + c * (tile + gap), top + r * (tile + gap + 24));
+        for y in 0..tile {
+            for x in 0..tile {
+                // Box-filtered resampling of the image onto the tile.
+                let (sx0, sx1) = (
+                    x * img.width / tile,
+                    ((x + 1) * img.width / tile).max(x * img.width / tile + 1),
+                );
+                let (sy0, sy1) = (
+                    y * img.height / tile,
+                    ((y + 1) * img.height / tile).max(y * img.height / tile + 1),
+                );
+                let mut acc = [0f32; 3];
+                let mut n: f32 = 0.0;
+                for sy in sy0..sy1.min(img.height) {
+                    for sx in sx0..sx1.min(img.width) {
+                        let p = img.at(sx, sy);
+                        for i in 0..3 {
+                            acc[i] += p[i];
+                        }
+                        n += 1.0;
+                    }
+                }
+                let o = (((y0 + y) * w + x0 + x) * 3) as usize;
+                for i in 0..3 {
+                    buf[o + i] = srgb(acc[i] / n.max(1.0));
+                }
+            }
+        }
+    }
+    {
+        crate::plot::register_font_once();
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        let font = ("sans-serif", 16).into_font();
+        let t = |s: &str, x: u32, y: u32, size: f64| {
+            root.draw(&Text::new(
+                s.to_string(),
+                (x as i32, y as i32),
+                ("sans-serif", size).into_font(),
+            ))
+        };
+        let e = |r: Result<(), _>| r.map_err(|e| anyhow::anyhow!("drawing failed: {e:?}"));
+        e(root.draw(&Text::new(
+            "Blinn 1977, Figure 7: Phong against Torrance–Sparrow (equal β)".to_string(),
+            (10, 8),
+            font,
+        )))?;
+        for (c, label) in [
+            "front lit, Phong",
+            "front lit, Torrance–Sparrow",
+            "edge lit, Phong",
+            "edge lit, Torrance–Sparrow",
+        ]
+        .iter()
+        .enumerate()
+        {
+            e(t(label, left + c as u32 * (tile + gap) + 4, 36, 14.0))?;
+        }
+        for (r, label) in ["aluminium", "MgO"].iter().enumerate() {
+            e(t(
+                label,
+                8,
+                top + r as u32 * (tile + gap + 24) + tile / 2,
+                16.0,
+            ))?;
+        }
+        for (k, (name, _)) in images.iter().enumerate().take(8) {
+            let (r, c) = (k as u32 / 4, k as u32 % 4);
+            e(t(
+                name,
+                left + c * (tile + gap) + 4,
+                top + r * (tile + gap + 24) + tile + 4,
+                12.0,
+            ))?;
+        }
+        root.present()
+            .map_err(|e| anyhow::anyhow!("drawing failed: {e:?}"))?;
+    }
+    crate::plot::encode_png(w, h, &buf)
+}
