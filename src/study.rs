@@ -503,6 +503,164 @@ pub fn scipy_peer(ds: &Dataset, python: &str, script: &std::path::Path) -> Optio
     })
 }
 
+/// One row of the render study.
+#[derive(Clone, Debug)]
+pub struct RenderRow {
+    /// `uniform` or `adaptive`.
+    pub mode: String,
+    /// Samples per axis (uniform) or threshold (adaptive).
+    pub setting: f64,
+    /// Primary rays per pixel, averaged over the scenes.
+    pub rays_per_pixel: f64,
+    /// All rays (primary and shadow) per pixel, averaged over the scenes.
+    pub all_rays_per_pixel: f64,
+    /// Render time summed over the scenes.
+    pub seconds: f64,
+    /// RMSE on linear values against the 16×16-supersampled reference, averaged over scenes.
+    pub rmse: f64,
+}
+
+/// Image error against time and rays per pixel, uniform against adaptive anti-aliasing, on the
+/// Figure 7 scenes (Blinn's aluminium and MgO, front and edge lit, Torrance–Sparrow) at
+/// `res`×`res`, against a 16×16-supersampled reference of each.
+pub fn render_study(res: u32) -> Vec<RenderRow> {
+    use crate::render::{self, AntiAlias, scene};
+    let scenes: Vec<render::Scene> = [Model::blinn_aluminium(), Model::blinn_mgo()]
+        .iter()
+        .flat_map(|m| {
+            [scene::Lighting::Front, scene::Lighting::Edge].map(|l| scene::fig7_scene(*m, l, res))
+        })
+        .collect();
+    let with = |s: &render::Scene, aa: AntiAlias| {
+        let mut s = s.clone();
+        s.antialias = aa;
+        let t = std::time::Instant::now();
+        let img = s.render(&|| {});
+        (img, t.elapsed().as_secs_f64())
+    };
+    let refs: Vec<render::Image> = scenes
+        .iter()
+        .map(|s| with(s, AntiAlias::Uniform(16)).0)
+        .collect();
+    let mut settings: Vec<(String, f64, AntiAlias)> = (1..=6)
+        .map(|n| ("uniform".to_string(), n as f64, AntiAlias::Uniform(n)))
+        .collect();
+    for th in [0.2, 0.1, 0.05, 0.02, 0.01, 0.005] {
+        settings.push((
+            "adaptive".into(),
+            th,
+            AntiAlias::Adaptive {
+                threshold: th,
+                max_level: 4,
+            },
+        ));
+    }
+    let px = (res as f64) * (res as f64);
+    settings
+        .into_iter()
+        .map(|(mode, setting, aa)| {
+            let (mut rays, mut all, mut secs, mut err) = (0.0, 0.0, 0.0, 0.0);
+            for (s, r) in scenes.iter().zip(&refs) {
+                let (img, t) = with(s, aa);
+                rays += img.rays[0] as f64 / px;
+                all += img.total_rays() as f64 / px;
+                secs += t;
+                err += render::rmse(&img, r);
+            }
+            let k = scenes.len() as f64;
+            RenderRow {
+                mode,
+                setting,
+                rays_per_pixel: rays / k,
+                all_rays_per_pixel: all / k,
+                seconds: secs,
+                rmse: err / k,
+            }
+        })
+        .collect()
+}
+
+/// Chart of the render study: RMSE against primary rays per pixel (or time).
+pub fn render_chart(title: &str, rows: &[RenderRow], by_time: bool) -> XyChart {
+    let series = ["uniform", "adaptive"]
+        .iter()
+        .map(|m| LobeSeries {
+            label: if *m == "uniform" {
+                "uniform n×n supersampling".into()
+            } else {
+                "Whitted adaptive corner sampling".into()
+            },
+            points: rows
+                .iter()
+                .filter(|r| r.mode == *m)
+                .map(|r| (if by_time { r.seconds } else { r.rays_per_pixel }, r.rmse))
+                .collect(),
+            markers: false,
+        })
+        .collect();
+    XyChart {
+        title: title.to_string(),
+        x_label: if by_time {
+            "render time, 4 scenes (s)".into()
+        } else {
+            "primary rays per pixel".into()
+        },
+        y_label: "RMSE against 16×16 reference (linear)".into(),
+        series,
+        log_x: true,
+        log_y: true,
+        hline: None,
+    }
+}
+
+/// Markdown and CSV tables of the render study; times only when `with_times`.
+pub fn render_tables(rows: &[RenderRow], with_times: bool) -> (String, String) {
+    let mut md = format!(
+        "| mode | setting | primary rays/pixel | all rays/pixel |{} RMSE |\n|---|---:|---:|---:|{}---:|\n",
+        if with_times { " time (s) |" } else { "" },
+        if with_times { "---:|" } else { "" }
+    );
+    let mut csv = format!(
+        "mode,setting,rays_per_pixel,all_rays_per_pixel,{}rmse\n",
+        if with_times { "seconds," } else { "" }
+    );
+    for r in rows {
+        let t = if with_times {
+            format!(" {:.3} |", r.seconds)
+        } else {
+            String::new()
+        };
+        let _ = writeln!(
+            md,
+            "| {} | {} | {:.3} | {:.3} |{t} {:.3e} |",
+            r.mode, r.setting, r.rays_per_pixel, r.all_rays_per_pixel, r.rmse
+        );
+        let t = if with_times {
+            format!("{},", r.seconds)
+        } else {
+            String::new()
+        };
+        let _ = writeln!(
+            csv,
+            "{},{},{},{},{t}{}",
+            r.mode, r.setting, r.rays_per_pixel, r.all_rays_per_pixel, r.rmse
+        );
+    }
+    (md, csv)
+}
+
+/// The cheapest uniform and adaptive settings reaching `target` RMSE: (uniform rays/pixel,
+/// adaptive rays/pixel).
+pub fn rays_at_error(rows: &[RenderRow], target: f64) -> (Option<f64>, Option<f64>) {
+    let best = |m: &str| {
+        rows.iter()
+            .filter(|r| r.mode == m && r.rmse <= target)
+            .map(|r| r.rays_per_pixel)
+            .fold(None, |a: Option<f64>, b| Some(a.map_or(b, |a| a.min(b))))
+    };
+    (best("uniform"), best("adaptive"))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -13,8 +13,8 @@
 //!   Ambient: a uniform ambient radiance A adds pd·A·colour.
 //! - Anti-aliasing as Whitted describes: samples at pixel corners; a pixel is subdivided (up to
 //!   `max_level`) only where its corner values differ beyond `threshold`, a different object is
-//!   hit, or a ray passes within a pixel footprint of an object's bounding sphere without
-//!   hitting it (a small object may fall between the corners). Uniform n×n supersampling and
+//!   hit, or a ray passes within the minimum radius (one sample footprint at that distance) of
+//!   an object smaller than that without hitting it (a small object may fall between corners). Uniform n×n supersampling and
 //!   single centre samples are there for comparison.
 //! - Bounding spheres for every object and a BVH for triangle meshes; rayon over rows; linear
 //!   f32 OpenEXR and 8-bit sRGB PNG output; deterministic.
@@ -657,8 +657,9 @@ impl Scene {
         c.primary.fetch_add(1, Ordering::Relaxed);
         let r = self.camera.ray(x, y);
         let hit = self.intersect(&r, f64::INFINITY);
-        // Whitted's small-object test: the ray passes within a pixel footprint of a bounding
-        // sphere it does not hit.
+        // Whitted's small-object test: an object whose bounding sphere is smaller than the
+        // sample footprint gets a minimum radius r_min = footprint·distance; a ray passing
+        // within r_min of its centre without hitting it flags the square for subdivision.
         let near_miss = self.objects.iter().enumerate().any(|(i, o)| {
             let (ctr, rad) = o.bound;
             if !rad.is_finite() || hit.is_some_and(|h| h.0 == i) {
@@ -666,7 +667,8 @@ impl Scene {
             }
             let v = ctr - r.o;
             let t = v.dot(r.d);
-            t > 0.0 && (v - t * r.d).length() < rad + footprint * t && (v - t * r.d).length() > rad
+            let r_min = footprint * t;
+            t > 0.0 && rad < r_min && (v - t * r.d).length() < r_min
         });
         Sample {
             color: self.trace(&r, 0, 1.0, c),

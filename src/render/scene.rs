@@ -232,15 +232,13 @@ pub fn parse_scene(text: &str, dir: &Path) -> Result<Scene> {
                     bail!("object {}: plane normal is zero", k + 1);
                 }
                 let normal = normal.normalize();
-                let u = normal.any_orthonormal_vector();
-                let u = if normal.y.abs() > 0.9 { DVec3::X } else { u };
-                let u = (u - u.dot(normal) * normal).normalize();
+                let (u, v) = plane_axes(normal);
                 Shape::Plane {
                     point: need(o.point, "point")?,
                     normal,
                     half: o.size,
                     u,
-                    v: normal.cross(u),
+                    v,
                 }
             }
             "mesh" => {
@@ -373,6 +371,26 @@ fn material(name: &str, m: &MaterialSpec, dir: &Path) -> Result<Material> {
             frequency: r.frequency,
         }),
     })
+}
+
+/// Texture axes of a plane: u follows world x (z when the normal is along x), v follows world
+/// y (z when the normal is along y), both projected into the plane, so a floor's checker runs
+/// along x and z and a wall's along x and y.
+pub fn plane_axes(n: DVec3) -> (DVec3, DVec3) {
+    let proj = |a: DVec3| a - a.dot(n) * n;
+    let u = if n.x.abs() > 0.9 {
+        proj(DVec3::Z)
+    } else {
+        proj(DVec3::X)
+    }
+    .normalize();
+    let v0 = if n.y.abs() > 0.9 {
+        proj(DVec3::Z)
+    } else {
+        proj(DVec3::Y)
+    };
+    let v = (v0 - v0.dot(u) * u).normalize();
+    (u, v)
 }
 
 /// Read a scene file.
