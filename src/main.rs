@@ -245,6 +245,9 @@ enum StudyCommand {
         /// Resolution of the study images.
         #[arg(long, default_value_t = 192)]
         res: u32,
+        /// Study this scene file (at its own resolution) instead of the Figure 7 scenes.
+        #[arg(long)]
+        scene: Option<PathBuf>,
         /// Output directory (render-study.svg/png/csv/md).
         #[arg(short, long)]
         output: PathBuf,
@@ -322,8 +325,11 @@ fn run_study(cmd: StudyCommand) -> Result<()> {
             brdfit::output::write_bytes_atomic(&output.join("speed-accuracy.csv"), csv.as_bytes())?;
             print(&md)
         }
-        StudyCommand::Render { res, output } => {
-            let rows = study::render_study(res.clamp(8, 2048));
+        StudyCommand::Render { res, scene, output } => {
+            let rows = match &scene {
+                Some(p) => study::render_study_scenes(&[brdfit::render::scene::load_scene(p)?]),
+                None => study::render_study(res.clamp(8, 2048)),
+            };
             let title = format!(
                 "Anti-aliasing: image error against rays per pixel (Figure 7 scenes, {res}×{res})"
             );

@@ -524,13 +524,19 @@ pub struct RenderRow {
 /// Figure 7 scenes (Blinn's aluminium and MgO, front and edge lit, Torrance–Sparrow) at
 /// `res`×`res`, against a 16×16-supersampled reference of each.
 pub fn render_study(res: u32) -> Vec<RenderRow> {
-    use crate::render::{self, AntiAlias, scene};
-    let scenes: Vec<render::Scene> = [Model::blinn_aluminium(), Model::blinn_mgo()]
+    use crate::render::scene;
+    let scenes: Vec<crate::render::Scene> = [Model::blinn_aluminium(), Model::blinn_mgo()]
         .iter()
         .flat_map(|m| {
             [scene::Lighting::Front, scene::Lighting::Edge].map(|l| scene::fig7_scene(*m, l, res))
         })
         .collect();
+    render_study_scenes(&scenes)
+}
+
+/// [`render_study`] on any scenes (each at its own resolution).
+pub fn render_study_scenes(scenes: &[crate::render::Scene]) -> Vec<RenderRow> {
+    use crate::render::{self, AntiAlias};
     let with = |s: &render::Scene, aa: AntiAlias| {
         let mut s = s.clone();
         s.antialias = aa;
@@ -555,15 +561,15 @@ pub fn render_study(res: u32) -> Vec<RenderRow> {
             },
         ));
     }
-    let px = (res as f64) * (res as f64);
+    let px = |s: &render::Scene| (s.camera.width as f64) * (s.camera.height as f64);
     settings
         .into_iter()
         .map(|(mode, setting, aa)| {
             let (mut rays, mut all, mut secs, mut err) = (0.0, 0.0, 0.0, 0.0);
             for (s, r) in scenes.iter().zip(&refs) {
                 let (img, t) = with(s, aa);
-                rays += img.rays[0] as f64 / px;
-                all += img.total_rays() as f64 / px;
+                rays += img.rays[0] as f64 / px(s);
+                all += img.total_rays() as f64 / px(s);
                 secs += t;
                 err += render::rmse(&img, r);
             }
