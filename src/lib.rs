@@ -18,5 +18,6 @@ pub mod model;
 pub mod output;
 pub mod plot;
 pub mod render;
+pub mod report;
 pub mod simulate;
 pub mod study;

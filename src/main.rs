@@ -19,6 +19,28 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// One command from measurements to a report: fits, model comparison, plots, renders and
+    /// studies for each file (the bundled data/ when no file is given), as index.html, report.md
+    /// and results.json.
+    #[command(
+        after_help = "Examples:\n  brdfit report\n  brdfit report my-sample.csv -o my-report"
+    )]
+    Report {
+        /// Data files (default: every data file in data/).
+        files: Vec<PathBuf>,
+        /// Output directory (regenerated).
+        #[arg(short, long, default_value = "reports")]
+        output: PathBuf,
+        /// Random starts per configuration in each stability study.
+        #[arg(long, default_value_t = 3)]
+        stability_starts: usize,
+        /// Resolution of the material renders.
+        #[arg(long, default_value_t = 256)]
+        render_res: u32,
+        /// No progress messages.
+        #[arg(long, short)]
+        quiet: bool,
+    },
     /// Summarise a data file: format, samples, channels, quantity, angle coverage, value range.
     #[command(after_help = "Example:\n  brdfit info data/cayman.astm")]
     Info {
@@ -366,7 +388,7 @@ fn run_study(cmd: StudyCommand) -> Result<()> {
                         .model_for(0)
                 }
             };
-            let rows = study::stability(&reference, starts.clamp(1, 1000), seed);
+            let rows = study::stability(&reference, starts.clamp(1, 1000), 1500, seed);
             let title = format!("Stability from {starts} random starts around {reference}");
             plot::save(
                 &study::stability_chart(&title, &rows),
@@ -782,6 +804,43 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Fit { fit, load } => run_fit(&fit, &load),
+        Command::Report {
+            files,
+            output,
+            stability_starts,
+            render_res,
+            quiet,
+        } => {
+            let files = if files.is_empty() {
+                let f = brdfit::report::bundled_files(Path::new("data"));
+                if f.is_empty() {
+                    bail!(
+                        "no data files given and none found in data/\n  fix: run from the brdfit checkout, or name the files: brdfit report FILE..."
+                    );
+                }
+                f
+            } else {
+                files
+            };
+            let t = std::time::Instant::now();
+            brdfit::report::report(
+                &files,
+                &brdfit::report::ReportOptions {
+                    out: output.clone(),
+                    stability_starts: stability_starts.clamp(1, 100),
+                    render_res: render_res.clamp(16, 4096),
+                    verbose: !quiet,
+                },
+            )?;
+            if !quiet {
+                eprintln!(
+                    "report written to {}/index.html in {:.1} s",
+                    output.display(),
+                    t.elapsed().as_secs_f64()
+                );
+            }
+            Ok(())
+        }
         Command::Render {
             scene,
             output,

@@ -298,12 +298,12 @@ pub struct StabilityRow {
     pub failures: usize,
 }
 
-/// Run the stability study around `reference`: for each noise level and pattern, synthetic
-/// data, then `starts` seeded random starts per method with and without the global
+/// Run the stability study around `reference`: for each noise level and pattern, about
+/// `samples` synthetic samples, then `starts` seeded random starts per method with and without the global
 /// initialisation. The global minimum of a configuration is the lowest cost any run found;
 /// a run reaches it when its cost is within 1e-6 relative (Nelder–Mead's own tolerance) or,
 /// for noise-free data whose minimum is 0, within 1e-12 per sample.
-pub fn stability(reference: &Model, starts: usize, seed: u64) -> Vec<StabilityRow> {
+pub fn stability(reference: &Model, starts: usize, samples: usize, seed: u64) -> Vec<StabilityRow> {
     let noises = [0.0, 0.01, 0.05, 0.20];
     let configs: Vec<(f64, Pattern)> = noises
         .iter()
@@ -313,7 +313,7 @@ pub fn stability(reference: &Model, starts: usize, seed: u64) -> Vec<StabilityRo
         .par_iter()
         .enumerate()
         .flat_map(|(ci, &(noise, pattern))| {
-            let dirs = pattern.directions(1500, seed + ci as u64);
+            let dirs = pattern.directions(samples.max(10), seed + ci as u64);
             let ds = simulate(reference, &dirs, noise, seed + 100 + ci as u64);
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed + 1000 + ci as u64);
             let start_points: Vec<Vec<(String, f64)>> = (0..starts)

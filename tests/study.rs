@@ -44,7 +44,7 @@ fn speed_accuracy_covers_every_method_and_model() {
 
 #[test]
 fn stability_counts_starts_per_configuration() {
-    let rows = study::stability(&Model::blinn_mgo(), 2, 3);
+    let rows = study::stability(&Model::blinn_mgo(), 2, 1500, 3);
     assert_eq!(rows.len(), 16 * 6);
     assert!(rows.iter().all(|r| r.starts == 2 && r.hits <= 2));
     // With the global initialisation LM reaches the minimum on the full hemisphere at 1 % noise.

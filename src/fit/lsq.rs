@@ -576,9 +576,9 @@ pub fn nelder_mead<P: Problem>(p: &P, x0: &[f64], robust: Robust, limits: &Limit
     let mut iter = 0;
     let mut termination = "iteration limit reached".to_string();
     let mut converged = false;
-    let max_iter = limits.max_iter * 20;
+    let max_iter = limits.max_iter * 4;
     while iter < max_iter {
-        if evals >= limits.max_eval * 5 {
+        if evals >= limits.max_eval * 2 {
             termination = "evaluation limit reached".into();
             break;
         }

@@ -1,0 +1,530 @@
+//! `brdfit report`: from measured files to one shareable folder — per data set the summary,
+//! the model comparison, the fitted parameters with uncertainty and warnings, lobe plots with
+//! the in-plane data, residual and albedo plots, renders of the fitted material and the two
+//! studies; plus Blinn's Figures 5–7. Written as `index.html` (self-contained, relative links,
+//! no script), `report.md`, `results.json` (every fit) and `timings.json` (the only file that
+//! changes between runs of the same inputs).
+
+use crate::data::{self, ChannelSelect, Dataset, LoadOptions};
+use crate::fit::{self, FitOptions, FitResult};
+use crate::model::{Model, ModelKind};
+use crate::output::write_bytes_atomic;
+use crate::{plot, render, study};
+use anyhow::{Context, Result};
+use serde_json::{Value, json};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Options of a report.
+#[derive(Clone, Debug)]
+pub struct ReportOptions {
+    /// Output directory.
+    pub out: PathBuf,
+    /// Random starts per configuration in the stability study.
+    pub stability_starts: usize,
+    /// Render resolution of the material previews.
+    pub render_res: u32,
+    /// Progress messages on stderr.
+    pub verbose: bool,
+}
+
+/// The bundled data files: `data/*.csv`, `data/*.astm`, `data/*.brdf`, `data/*.binary`, sorted.
+pub fn bundled_files(dir: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map(|rd| {
+            rd.filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| {
+                    matches!(
+                        p.extension().and_then(|e| e.to_str()),
+                        Some("csv" | "astm" | "brdf" | "binary")
+                    )
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
+/// One section of the report (HTML and Markdown built side by side).
+#[derive(Default)]
+struct Doc {
+    html: String,
+    md: String,
+}
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+impl Doc {
+    fn h(&mut self, level: usize, text: &str, id: &str) {
+        let _ = writeln!(self.html, "<h{level} id=\"{id}\">{}</h{level}>", esc(text));
+        let _ = writeln!(self.md, "\n{} {text}\n", "#".repeat(level));
+    }
+    fn p(&mut self, text: &str) {
+        let _ = writeln!(self.html, "<p>{}</p>", esc(text));
+        let _ = writeln!(self.md, "{text}\n");
+    }
+    fn pre(&mut self, text: &str) {
+        let _ = writeln!(self.html, "<pre>{}</pre>", esc(text));
+        let _ = writeln!(self.md, "```text\n{}```\n", text);
+    }
+    fn table(&mut self, head: &[&str], rows: &[Vec<String>]) {
+        self.html.push_str("<table>\n<tr>");
+        for h in head {
+            let _ = write!(self.html, "<th>{}</th>", esc(h));
+        }
+        self.html.push_str("</tr>\n");
+        let _ = writeln!(self.md, "| {} |", head.join(" | "));
+        let _ = writeln!(self.md, "|{}", "---|".repeat(head.len()));
+        for r in rows {
+            self.html.push_str("<tr>");
+            for c in r {
+                let _ = write!(self.html, "<td>{}</td>", esc(c));
+            }
+            self.html.push_str("</tr>\n");
+            let _ = writeln!(self.md, "| {} |", r.join(" | "));
+        }
+        self.html.push_str("</table>\n");
+        self.md.push('\n');
+    }
+    /// A figure: PNG shown, SVG linked (paths relative to the report directory).
+    fn figure(&mut self, png: &str, svg: Option<&str>, caption: &str) {
+        let link = svg.map_or(String::new(), |s| format!(" (<a href=\"{s}\">SVG</a>)"));
+        let _ = writeln!(
+            self.html,
+            "<figure><img src=\"{png}\" alt=\"{}\"><figcaption>{}{link}</figcaption></figure>",
+            esc(caption),
+            esc(caption)
+        );
+        let _ = writeln!(self.md, "![{caption}]({png})\n");
+    }
+    fn link(&mut self, href: &str, text: &str) {
+        let _ = writeln!(self.html, "<p><a href=\"{href}\">{}</a></p>", esc(text));
+        let _ = writeln!(self.md, "[{text}]({href})\n");
+    }
+}
+
+fn rel(p: &Path, root: &Path) -> String {
+    p.strip_prefix(root)
+        .unwrap_or(p)
+        .to_string_lossy()
+        .replace('\\', "/")
+}
+
+fn save_chart(chart: &impl plot::Chart, root: &Path, rel_base: &str) -> Result<(String, String)> {
+    let (svg, png) = plot::save(chart, &root.join(rel_base))?;
+    Ok((rel(&png, root), rel(&svg, root)))
+}
+
+/// Fit JSON without its timing (so results.json is the same bytes on every run).
+fn fit_json(f: &FitResult) -> Value {
+    let mut v = f.to_json();
+    if let Some(o) = v.as_object_mut() {
+        o.remove("seconds");
+    }
+    v
+}
+
+fn is_synthetic(ds: &Dataset) -> bool {
+    study::parse_truth(ds).is_some()
+}
+
+/// Run the whole report for `files`.
+pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
+    let root = &opts.out;
+    std::fs::create_dir_all(root).with_context(|| format!("creating {}", root.display()))?;
+    let t_all = Instant::now();
+    let mut doc = Doc::default();
+    let mut results = Vec::new();
+    let mut timings = serde_json::Map::new();
+    let mut toc = Vec::new();
+    let say = |m: &str| {
+        if opts.verbose {
+            eprintln!("report: {m}");
+        }
+    };
+
+    // Blinn's figures first.
+    doc.h(2, "Blinn 1977, Figures 5–7", "blinn");
+    let t = Instant::now();
+    let (p5, s5) = save_chart(&plot::blinn_figure(30.0, 5), root, "blinn/figure5")?;
+    let (p6, s6) = save_chart(&plot::blinn_figure(70.0, 6), root, "blinn/figure6")?;
+    doc.p("Phong ((N·H)^c1, c1 = 50) against Torrance–Sparrow (D3 with the same half-angle β, n 1.8, ps .667, pd .333); Phong's ps matches the Torrance–Sparrow highlight at normal incidence. At 30° the two are nearly identical; at 70° the Torrance–Sparrow bump is far larger and points off-specular, toward grazing.");
+    doc.figure(&p5, Some(&s5), "Figure 5: incident light at 30°");
+    doc.figure(&p6, Some(&s6), "Figure 6: incident light at 70°");
+    let imgs = render::fig7_images(
+        &Model::blinn_aluminium(),
+        &Model::blinn_mgo(),
+        opts.render_res,
+        render::AntiAlias::Adaptive {
+            threshold: 0.02,
+            max_level: 3,
+        },
+    );
+    write_bytes_atomic(&root.join("blinn/fig7.png"), &render::contact_sheet(&imgs)?)?;
+    doc.p("Figure 7 with Blinn's parameters (aluminium ps .4 pd .6 n 200 c3 .5; MgO ps .667 pd .333 n 1.8 c3 .35), rendered by brdfit's Whitted ray tracer: front lit the models agree; edge lit the ceramic's Torrance–Sparrow highlight is several times brighter than Phong's.");
+    doc.figure(
+        "blinn/fig7.png",
+        None,
+        "Figure 7: aluminium and MgO, front and edge lit, Phong and Torrance–Sparrow",
+    );
+    timings.insert("blinn_figures".into(), json!(t.elapsed().as_secs_f64()));
+
+    for file in files {
+        let t0 = Instant::now();
+        let name = file
+            .file_stem()
+            .map_or("data".into(), |s| s.to_string_lossy().into_owned());
+        say(&format!("{name}: loading"));
+        let full = data::load(file, &LoadOptions::default())?;
+        let (ds, channel_note) =
+            if full.channels.iter().any(|c| c.wavelength_nm.is_some()) && full.channels.len() > 1 {
+                (
+                    full.select(&ChannelSelect::CieY)
+                        .map_err(anyhow::Error::msg)?,
+                    "CIE 1931 luminance Y of the spectral channels",
+                )
+            } else if full.channels.len() > 1 {
+                let g = if full.channels.iter().any(|c| c.name == "g") {
+                    "g"
+                } else {
+                    "0"
+                };
+                (
+                    full.select(&ChannelSelect::parse(g))
+                        .map_err(anyhow::Error::msg)?,
+                    "the green channel",
+                )
+            } else {
+                (full.clone(), "the single channel")
+            };
+        let dir = name.clone();
+        toc.push((name.clone(), name.clone()));
+        doc.h(2, &format!("{name} ({})", file.display()), &name);
+        doc.pre(
+            &data::summary(&full),
+        );
+        doc.p(&format!("Fits use {channel_note}."));
+        let mut tm = serde_json::Map::new();
+
+        // Model comparison.
+        say(&format!("{name}: fitting"));
+        let fits: Vec<FitResult> = fit::all_models()
+            .into_iter()
+            .map(|(k, d)| {
+                let mut o = FitOptions::new(k);
+                o.dist = d;
+                fit::fit(&ds, &o).map(|mut v| v.remove(0))
+            })
+            .collect::<std::result::Result<_, _>>()
+            .with_context(|| format!("fitting {}", file.display()))?;
+        tm.insert(
+            "fits".into(),
+            json!(fits.iter().map(|f| f.seconds).sum::<f64>()),
+        );
+        let (order, rec) = fit::rank(&fits);
+        doc.h(3, "Model comparison", &format!("{name}-models"));
+        let best_bic = fits[order[0]].bic;
+        let rows: Vec<Vec<String>> = order
+            .iter()
+            .map(|&i| {
+                let f = &fits[i];
+                vec![
+                    f.label(),
+                    f.n_free.to_string(),
+                    format!("{:.6e}", f.cost),
+                    format!("{:.1}", f.aic),
+                    format!("{:.1}", f.bic),
+                    format!("{:.1}", f.bic - best_bic),
+                    if i == rec {
+                        "← simplest the data support".into()
+                    } else {
+                        String::new()
+                    },
+                ]
+            })
+            .collect();
+        doc.table(&["model", "k", "cost", "AIC", "BIC", "ΔBIC", ""], &rows);
+        doc.p(&format!(
+            "Recommended: {} — the model with the fewest parameters within 2 BIC of the best.",
+            fits[rec].label()
+        ));
+
+        // Parameters of Torrance–Sparrow (D3) and of the recommended model.
+        let ts_i = fits
+            .iter()
+            .position(|f| {
+                f.model == ModelKind::TorranceSparrow && f.dist == crate::model::Distribution::D3
+            })
+            .expect("all_models has d3");
+        doc.h(3, "Parameters", &format!("{name}-params"));
+        let mut shown = vec![ts_i];
+        if rec != ts_i {
+            shown.push(rec);
+        }
+        for &i in &shown {
+            let f = &fits[i];
+            let rows: Vec<Vec<String>> = f
+                .params
+                .iter()
+                .zip(&f.stderr)
+                .map(|((n, v), s)| {
+                    let range = f
+                        .ranges
+                        .iter()
+                        .find(|r| r.0 == *n)
+                        .map_or(String::new(), |r| fit::describe_range(n, (r.1, r.2)));
+                    vec![
+                        n.clone(),
+                        crate::model::short(*v),
+                        format!("{s:.3e}"),
+                        range,
+                    ]
+                })
+                .collect();
+            doc.p(&format!(
+                "{} (log loss, {} samples, termination: {}):",
+                f.label(),
+                f.samples_used,
+                f.termination
+            ));
+            doc.table(
+                &[
+                    "parameter",
+                    "value",
+                    "std. error",
+                    "range within 1 % of the minimum cost",
+                ],
+                &rows,
+            );
+            for w in &f.warnings {
+                doc.p(&format!("⚠ {w}"));
+            }
+        }
+        let ts = &fits[ts_i];
+        let fit_path = root.join(&dir).join("fit-torrance-sparrow.json");
+        write_bytes_atomic(
+            &fit_path,
+            (serde_json::to_string_pretty(&fit_json(ts))? + "\n").as_bytes(),
+        )?;
+        doc.link(
+            &rel(&fit_path, root),
+            "Torrance–Sparrow fit as JSON (input to brdfit render, plot and export)",
+        );
+        results.push(json!({ "file": file.display().to_string(), "channel": channel_note, "recommended": fits[rec].label(), "fits": fits.iter().map(fit_json).collect::<Vec<_>>() }));
+
+        // Lobe plots.
+        say(&format!("{name}: plots"));
+        let t = Instant::now();
+        let synthetic = is_synthetic(&ds);
+        let thetas = lobe_angles(&ds);
+        let models = vec![
+            (format!("{} fit", fits[ts_i].label()), ts.model_for(0)),
+            (format!("{} fit", fits[rec].label()), fits[rec].model_for(0)),
+        ];
+        let models: Vec<(String, Model)> = if rec == ts_i {
+            models[..1].to_vec()
+        } else {
+            models
+        };
+        let chart = plot::lobe_chart(
+            &format!("{name}: reflection in the plane of incidence"),
+            &models,
+            Some((&ds, 0)),
+            &thetas,
+            plot::LobeQuantity::Intensity,
+            !synthetic,
+            if synthetic { 5.0 } else { 1.0 },
+        );
+        doc.h(3, "Lobes, residuals and albedo", &format!("{name}-plots"));
+        let (png, svg) = save_chart(&chart, root, &format!("{dir}/lobes"))?;
+        doc.figure(&png, Some(&svg), &format!("Lobes at θi = {:?}° ({} radius; markers: measured samples in the plane of incidence)", thetas, if synthetic { "linear" } else { "logarithmic" }));
+        let pts = plot::residual_points(&ds, 0, &ts.model_for(0), true);
+        for (file_name, chart) in plot::residual_charts(&ts.label(), &pts) {
+            let (png, svg) = save_chart(&chart, root, &format!("{dir}/{file_name}"))?;
+            doc.figure(&png, Some(&svg), &chart.title);
+        }
+        let (chart, apts) = plot::albedo_chart(&ts.label(), &ts.model_for(0));
+        let (png, svg) = save_chart(&chart, root, &format!("{dir}/albedo"))?;
+        doc.figure(
+            &png,
+            Some(&svg),
+            "Directional albedo of the Torrance–Sparrow fit",
+        );
+        if let Some(p) = apts.iter().find(|p| p.1 > 1.0) {
+            doc.p(&format!(
+                "⚠ The fitted model creates energy: albedo {:.3} at θi = {}°.",
+                p.1, p.0
+            ));
+        }
+        tm.insert("plots".into(), json!(t.elapsed().as_secs_f64()));
+
+        // Renders of the fitted material.
+        say(&format!("{name}: renders"));
+        let t = Instant::now();
+        doc.h(
+            3,
+            "Renders of the fitted material",
+            &format!("{name}-renders"),
+        );
+        let m = ts.model_for(0);
+        let mut names = Vec::new();
+        for (lname, l) in [
+            ("front", render::scene::Lighting::Front),
+            ("edge", render::scene::Lighting::Edge),
+        ] {
+            for (mname, mm) in [("phong", crate::model::equal_beta_phong(&m)), ("ts", m)] {
+                let img = render::scene::fig7_scene(mm, l, opts.render_res).render(&|| {});
+                let base = root.join(&dir).join(format!("render-{lname}-{mname}"));
+                render::save(&img, &base)?;
+                names.push(format!("{dir}/render-{lname}-{mname}.png"));
+            }
+        }
+        let _ = writeln!(doc.html, "<div class=\"row\">");
+        for (n, cap) in names.iter().zip([
+            "front lit, Phong (equal β)",
+            "front lit, Torrance–Sparrow",
+            "edge lit, Phong (equal β)",
+            "edge lit, Torrance–Sparrow",
+        ]) {
+            let _ = writeln!(
+                doc.html,
+                "<figure class=\"small\"><img src=\"{n}\" alt=\"{cap}\"><figcaption>{cap} (<a href=\"{}\">EXR</a>)</figcaption></figure>",
+                n.replace(".png", ".exr")
+            );
+            let _ = writeln!(doc.md, "![{cap}]({n})");
+        }
+        let _ = writeln!(doc.html, "</div>");
+        doc.md.push('\n');
+        tm.insert("renders".into(), json!(t.elapsed().as_secs_f64()));
+
+        // Studies.
+        say(&format!("{name}: studies"));
+        let t = Instant::now();
+        doc.h(3, "Speed against accuracy", &format!("{name}-speed"));
+        let truth = study::parse_truth(&ds);
+        let rows = study::speed_accuracy(&ds, truth.as_ref(), 1);
+        let chart = study::speed_chart(
+            &format!("{name}: cost against work, every method × model"),
+            &rows,
+            true,
+        );
+        let (png, svg) = save_chart(&chart, root, &format!("{dir}/speed-accuracy"))?;
+        doc.figure(&png, Some(&svg), "Final cost against work (evaluations × samples) with the Pareto front; fit times are in timings.json");
+        let (md, csv) = study::speed_tables(&rows, false);
+        write_bytes_atomic(&root.join(&dir).join("speed-accuracy.csv"), csv.as_bytes())?;
+        doc.md.push_str(&md);
+        doc.md.push('\n');
+        doc.html.push_str(&md_table_to_html(&md));
+        tm.insert(
+            "speed_accuracy_fit_seconds".into(),
+            json!(
+                rows.iter()
+                    .map(|r| json!({"method": r.method, "model": r.model, "seconds": r.seconds}))
+                    .collect::<Vec<_>>()
+            ),
+        );
+        doc.h(
+            3,
+            "Stability from random starts",
+            &format!("{name}-stability"),
+        );
+        let reference = truth
+            .filter(|m| m.kind == ModelKind::TorranceSparrow)
+            .unwrap_or(m);
+        let srows = study::stability(&reference, opts.stability_starts, 600, 1);
+        let chart = study::stability_chart(
+            &format!(
+                "{name}: share of {} random starts reaching the global minimum",
+                opts.stability_starts
+            ),
+            &srows,
+        );
+        let (png, svg) = save_chart(&chart, root, &format!("{dir}/stability"))?;
+        doc.figure(&png, Some(&svg), "Stability across noise levels and sampling patterns (configurations numbered as in the table)");
+        let (md, csv) = study::stability_tables(&srows);
+        write_bytes_atomic(&root.join(&dir).join("stability.csv"), csv.as_bytes())?;
+        doc.md.push_str(&md);
+        doc.md.push('\n');
+        doc.html.push_str(&md_table_to_html(&md));
+        tm.insert("studies".into(), json!(t.elapsed().as_secs_f64()));
+        tm.insert("total".into(), json!(t0.elapsed().as_secs_f64()));
+        timings.insert(name.clone(), Value::Object(tm));
+    }
+
+    // Assemble.
+    let mut html = String::from(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>brdfit report</title>\n<style>\nbody{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}\ntable{border-collapse:collapse;margin:0.5em 0}\ntd,th{border:1px solid #bbb;padding:3px 8px;text-align:left}\nimg{max-width:100%}\nfigure{margin:1em 0}\nfigure.small{display:inline-block;width:24%;margin:0.3em}\npre{background:#f4f4f4;padding:0.6em}\n</style>\n</head>\n<body>\n<h1>brdfit report</h1>\n",
+    );
+    let mut md = String::from("# brdfit report\n\n");
+    html.push_str("<p>Fits of reflection models to the measured samples below, with uncertainties, the model comparison, plots against the data, renders of the fitted materials and the method studies. Every fit is in <a href=\"results.json\">results.json</a>; run times are only in <a href=\"timings.json\">timings.json</a>. The same content as Markdown: <a href=\"report.md\">report.md</a>.</p>\n<ul>\n<li><a href=\"#blinn\">Blinn 1977, Figures 5–7</a></li>\n");
+    md.push_str("Every fit is in [results.json](results.json); run times are only in [timings.json](timings.json).\n\n- [Blinn 1977, Figures 5–7](#blinn-1977-figures-57)\n");
+    for (name, id) in &toc {
+        let _ = writeln!(html, "<li><a href=\"#{id}\">{}</a></li>", esc(name));
+        let _ = writeln!(md, "- {name}");
+    }
+    html.push_str("</ul>\n");
+    html.push_str(&doc.html);
+    html.push_str("</body>\n</html>\n");
+    md.push_str(&doc.md);
+    write_bytes_atomic(&root.join("index.html"), html.as_bytes())?;
+    write_bytes_atomic(&root.join("report.md"), md.as_bytes())?;
+    write_bytes_atomic(
+        &root.join("results.json"),
+        (serde_json::to_string_pretty(&json!({ "data_sets": results }))? + "\n").as_bytes(),
+    )?;
+    timings.insert("total".into(), json!(t_all.elapsed().as_secs_f64()));
+    write_bytes_atomic(
+        &root.join("timings.json"),
+        (serde_json::to_string_pretty(&Value::Object(timings))? + "\n").as_bytes(),
+    )?;
+    Ok(())
+}
+
+/// Incidence angles for the lobe plots: the two measured θi closest to 30° and 60° that have
+/// in-plane samples, else 30° and 60°.
+fn lobe_angles(ds: &Dataset) -> Vec<f64> {
+    let mut tis: Vec<f64> = ds
+        .theta_i
+        .iter()
+        .map(|t| (t.to_degrees() * 10.0).round() / 10.0)
+        .collect();
+    tis.sort_by(f64::total_cmp);
+    tis.dedup();
+    if tis.len() > 30 || tis.is_empty() {
+        return vec![30.0, 60.0];
+    }
+    let pick = |want: f64| {
+        tis.iter()
+            .cloned()
+            .min_by(|a, b| (a - want).abs().total_cmp(&(b - want).abs()))
+            .unwrap_or(want)
+    };
+    let (a, b) = (pick(30.0), pick(60.0));
+    if a == b { vec![a] } else { vec![a, b] }
+}
+
+/// A Markdown pipe table as an HTML table (for the study tables, built once as Markdown).
+fn md_table_to_html(md: &str) -> String {
+    let mut out = String::from("<table>\n");
+    for (k, line) in md.lines().filter(|l| l.starts_with('|')).enumerate() {
+        if k == 1 {
+            continue;
+        }
+        let cells: Vec<&str> = line.trim_matches('|').split('|').map(str::trim).collect();
+        let tag = if k == 0 { "th" } else { "td" };
+        out.push_str("<tr>");
+        for c in cells {
+            let _ = write!(out, "<{tag}>{}</{tag}>", esc(c));
+        }
+        out.push_str("</tr>\n");
+    }
+    out.push_str("</table>\n");
+    out
+}

@@ -1,0 +1,115 @@
+//! The report: every link and image in index.html points to an existing, valid file; the
+//! same inputs give the same files (timings aside); no network, no script.
+
+use std::path::{Path, PathBuf};
+
+fn run(out: &Path) {
+    let files = vec![
+        PathBuf::from("data/blinn-mgo.csv"),
+        PathBuf::from("data/cayman.astm"),
+    ];
+    brdfit::report::report(
+        &files,
+        &brdfit::report::ReportOptions {
+            out: out.to_path_buf(),
+            stability_starts: 1,
+            render_res: 32,
+            verbose: false,
+        },
+    )
+    .unwrap();
+}
+
+fn links(html: &str) -> Vec<String> {
+    let mut v = Vec::new();
+    for attr in ["src=\"", "href=\""] {
+        let mut rest = html;
+        while let Some(i) = rest.find(attr) {
+            rest = &rest[i + attr.len()..];
+            let end = rest.find('"').unwrap();
+            v.push(rest[..end].to_string());
+        }
+    }
+    v
+}
+
+fn tree(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.push((
+                    p.strip_prefix(dir).unwrap().to_path_buf(),
+                    std::fs::read(&p).unwrap(),
+                ));
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+#[test]
+fn report_links_are_valid_and_output_is_reproducible() {
+    let a = tempfile::tempdir().unwrap();
+    let b = tempfile::tempdir().unwrap();
+    run(a.path());
+    run(b.path());
+    let html = std::fs::read_to_string(a.path().join("index.html")).unwrap();
+    assert!(!html.contains("<script") && !html.contains("http://") && !html.contains("https://"));
+    let ls = links(&html);
+    assert!(ls.len() > 30, "{} links", ls.len());
+    for l in &ls {
+        if let Some(anchor) = l.strip_prefix('#') {
+            assert!(
+                html.contains(&format!("id=\"{anchor}\"")),
+                "dangling anchor {l}"
+            );
+            continue;
+        }
+        assert!(
+            !l.starts_with('/') && !l.contains(".."),
+            "not a relative link inside the report: {l}"
+        );
+        let p = a.path().join(l);
+        let bytes = std::fs::read(&p).unwrap_or_else(|_| panic!("missing {l}"));
+        match p.extension().and_then(|e| e.to_str()) {
+            Some("png") | Some("exr") => {
+                image::open(&p).unwrap_or_else(|e| panic!("{l}: {e}"));
+            }
+            Some("svg") => assert!(bytes.starts_with(b"<svg"), "{l}"),
+            Some("json") => {
+                serde_json::from_slice::<serde_json::Value>(&bytes)
+                    .unwrap_or_else(|e| panic!("{l}: {e}"));
+            }
+            Some("md") | Some("csv") => assert!(!bytes.is_empty()),
+            other => panic!("unexpected link type {other:?}: {l}"),
+        }
+    }
+    let (ta, tb) = (tree(a.path()), tree(b.path()));
+    assert_eq!(ta.len(), tb.len());
+    for ((pa, ba), (pb, bb)) in ta.iter().zip(&tb) {
+        assert_eq!(pa, pb);
+        if pa != Path::new("timings.json") {
+            assert!(ba == bb, "{} differs between runs", pa.display());
+        }
+    }
+    // results.json holds every fit (6 models × 2 data sets) and no timing.
+    let r: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(a.path().join("results.json")).unwrap()).unwrap();
+    let sets = r["data_sets"].as_array().unwrap();
+    assert_eq!(sets.len(), 2);
+    assert!(
+        sets.iter()
+            .all(|s| s["fits"].as_array().unwrap().len() == 6)
+    );
+    assert!(
+        !std::fs::read_to_string(a.path().join("results.json"))
+            .unwrap()
+            .contains("\"seconds\"")
+    );
+}
