@@ -13,6 +13,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod data;
+pub mod export;
 pub mod fit;
 pub mod model;
 pub mod output;

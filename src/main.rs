@@ -121,6 +121,27 @@ enum Command {
         #[arg(long, short)]
         quiet: bool,
     },
+    /// Export a fit to another renderer or format: mitsuba, pbrt, brdf-explorer, merl, csv.
+    #[command(
+        after_help = "Examples:\n  brdfit export fit.json --to mitsuba\n  brdfit export fit.json --to merl -o fitted.binary"
+    )]
+    Export {
+        /// The fit JSON (from brdfit fit --json or brdfit report).
+        fit: PathBuf,
+        /// Target: mitsuba (BSDF XML), pbrt (pbrt-v4 material), brdf-explorer (.brdf analytic),
+        /// merl (.binary table), csv (the model on a 5°/15° grid).
+        #[arg(long)]
+        to: String,
+        /// Output file (text formats go to standard output when omitted).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
+    #[command(after_help = "Example:\n  brdfit completions bash > /etc/bash_completion.d/brdfit")]
+    Completions {
+        /// The shell.
+        shell: clap_complete::Shell,
+    },
     /// Convert between formats: any → brdfit CSV, CSV (or any) → MERL .binary.
     #[command(
         after_help = "Example:\n  brdfit convert data/cayman.astm --channel cie-y -o cayman.csv"
@@ -599,8 +620,15 @@ fn run_plot(cmd: PlotCommand) -> Result<()> {
 
 #[derive(Args, Debug, Clone)]
 struct FitArgs {
-    /// The data file.
-    file: PathBuf,
+    /// The data file(s); several files are fitted in parallel (see --jobs, --summary).
+    #[arg(required = true)]
+    files: Vec<PathBuf>,
+    /// Files fitted at once in a batch.
+    #[arg(long, short = 'j', default_value_t = 2)]
+    jobs: usize,
+    /// Batch summary: one row per file, channel and model (CSV, or JSON when FILE ends in .json).
+    #[arg(long, value_name = "FILE")]
+    summary: Option<PathBuf>,
     /// Model: lambert, phong, blinn-phong, torrance-sparrow, or all (ranked by BIC).
     #[arg(long, default_value = "torrance-sparrow")]
     model: String,
@@ -804,6 +832,48 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Fit { fit, load } => run_fit(&fit, &load),
+        Command::Completions { shell } => {
+            use clap::CommandFactory;
+            let mut buf = Vec::new();
+            clap_complete::generate(shell, &mut Cli::command(), "brdfit", &mut buf);
+            print(&String::from_utf8_lossy(&buf))
+        }
+        Command::Export { fit, to, output } => {
+            use brdfit::export::{self, ExportFormat};
+            let fmt = ExportFormat::parse(&to).ok_or_else(|| {
+                anyhow!("unknown export format '{to}'\n  fix: use --to mitsuba, pbrt, brdf-explorer, merl or csv")
+            })?;
+            let r = read_fits(&fit)?.remove(0);
+            let m = r.model_for(0);
+            let id = fit
+                .file_stem()
+                .map_or("brdfit".into(), |s| s.to_string_lossy().into_owned());
+            let text = match fmt {
+                ExportFormat::Mitsuba => Some(export::mitsuba(&m, &id)),
+                ExportFormat::Pbrt => Some(export::pbrt(&m)),
+                ExportFormat::BrdfExplorer => Some(export::brdf_explorer(&m)),
+                ExportFormat::Merl | ExportFormat::Csv => None,
+            };
+            match (text, output) {
+                (Some(t), None) => print(&t),
+                (Some(t), Some(o)) => Ok(brdfit::output::write_bytes_atomic(&o, t.as_bytes())?),
+                (None, None) => bail!("--to {to} writes a file\n  fix: add -o OUT"),
+                (None, Some(o)) => {
+                    if same_file(&fit, &o) {
+                        bail!(
+                            "{}: the output would overwrite the input\n  fix: choose another output path",
+                            o.display()
+                        );
+                    }
+                    if fmt == ExportFormat::Merl {
+                        data::merl::write_merl(&export::merl_dataset(&m), &o)?;
+                    } else {
+                        data::write_csv(&export::grid_dataset(&m), &o)?;
+                    }
+                    Ok(())
+                }
+            }
+        }
         Command::Report {
             files,
             output,
@@ -888,8 +958,95 @@ fn run(cli: Cli) -> Result<()> {
 }
 
 fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
+    use rayon::prelude::*;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.jobs.clamp(1, 64))
+        .build()
+        .map_err(|e| anyhow!("cannot start {} jobs: {e}", a.jobs))?;
+    let results: Vec<Result<(String, Vec<brdfit::fit::FitResult>)>> = if a.files.len() == 1 {
+        vec![fit_one(a, load, &a.files[0])]
+    } else {
+        pool.install(|| a.files.par_iter().map(|f| fit_one(a, load, f)).collect())
+    };
+    let mut all = Vec::new();
+    let mut first_err = None;
+    for (f, r) in a.files.iter().zip(results) {
+        match r {
+            Ok((text, fits)) => {
+                if a.files.len() > 1 {
+                    print(&format!("== {}\n", f.display()))?;
+                }
+                print(&text)?;
+                all.push((f.clone(), fits));
+            }
+            Err(e) => {
+                eprintln!("error: {e:#}");
+                first_err.get_or_insert(e);
+            }
+        }
+    }
+    if let Some(path) = &a.json {
+        let flat: Vec<&brdfit::fit::FitResult> = all.iter().flat_map(|(_, f)| f).collect();
+        let v = if flat.len() == 1 {
+            flat[0].to_json()
+        } else {
+            serde_json::json!({ "fits": flat.iter().map(|f| f.to_json()).collect::<Vec<_>>() })
+        };
+        let s = serde_json::to_string_pretty(&v)? + "\n";
+        brdfit::output::write_bytes_atomic(path, s.as_bytes())
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(path) = &a.summary {
+        let text = if path.extension().is_some_and(|e| e == "json") {
+            let rows: Vec<serde_json::Value> = all
+                .iter()
+                .flat_map(|(f, fits)| {
+                    fits.iter().map(move |r| {
+                        let mut v = r.to_json();
+                        v["file"] = serde_json::json!(f.display().to_string());
+                        v
+                    })
+                })
+                .collect();
+            serde_json::to_string_pretty(&rows)? + "\n"
+        } else {
+            let mut s = String::from("file,channel,model,params,cost,rmse,samples_used,warnings\n");
+            for (f, fits) in &all {
+                for r in fits {
+                    let params: Vec<String> =
+                        r.params.iter().map(|(n, v)| format!("{n}={v}")).collect();
+                    s.push_str(&format!(
+                        "\"{}\",{},{},\"{}\",{},{},{},{}\n",
+                        f.display(),
+                        r.channel,
+                        r.label(),
+                        params.join(" "),
+                        r.cost,
+                        r.rmse,
+                        r.samples_used,
+                        r.warnings.len()
+                    ));
+                }
+            }
+            s
+        };
+        brdfit::output::write_bytes_atomic(path, text.as_bytes())
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    match first_err {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+/// Fit one file as the flags say: the terminal text and the fits.
+fn fit_one(
+    a: &FitArgs,
+    load: &LoadArgs,
+    file: &Path,
+) -> Result<(String, Vec<brdfit::fit::FitResult>)> {
     use brdfit::fit::{self, FitOptions, RobustKind, lsq::Method, problem::Loss};
-    let ds = load.load(&a.file)?;
+    let ds = load.load(file)?;
     let dist = Distribution::parse(&a.distribution).ok_or_else(|| {
         anyhow!(
             "unknown distribution '{}'\n  fix: use --distribution d1, d2 or d3",
@@ -951,7 +1108,7 @@ fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
             .collect();
         o.local_only = a.local_only;
         o.fast_pow = a.fast_pow;
-        let fits = fit::fit(&ds, &o).map_err(|e| anyhow!("{}: {e}", a.file.display()))?;
+        let fits = fit::fit(&ds, &o).map_err(|e| anyhow!("{}: {e}", file.display()))?;
         all.push(fits);
     }
     let mut text = String::new();
@@ -966,19 +1123,7 @@ fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
             text.push_str(&fit::format_ranking(&row));
         }
     }
-    print(&text)?;
-    if let Some(path) = &a.json {
-        let flat: Vec<&fit::FitResult> = all.iter().flatten().collect();
-        let v = if flat.len() == 1 {
-            flat[0].to_json()
-        } else {
-            serde_json::json!({ "fits": flat.iter().map(|f| f.to_json()).collect::<Vec<_>>() })
-        };
-        let s = serde_json::to_string_pretty(&v)? + "\n";
-        brdfit::output::write_bytes_atomic(path, s.as_bytes())
-            .with_context(|| format!("writing {}", path.display()))?;
-    }
-    Ok(())
+    Ok((text, all.into_iter().flatten().collect()))
 }
 
 fn ts_model_from(fit: Option<&Path>, default: Model) -> Result<Model> {

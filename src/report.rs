@@ -207,9 +207,7 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
         let dir = name.clone();
         toc.push((name.clone(), name.clone()));
         doc.h(2, &format!("{name} ({})", file.display()), &name);
-        doc.pre(
-            &data::summary(&full),
-        );
+        doc.pre(&data::summary(&full));
         doc.p(&format!("Fits use {channel_note}."));
         let mut tm = serde_json::Map::new();
 

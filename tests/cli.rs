@@ -433,3 +433,75 @@ fn fit_command_end_to_end() {
         &["unknown method 'bfgs'", "--method lm, gn or nm"],
     );
 }
+
+#[test]
+fn export_completions_and_batch() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("fit.json");
+    assert!(
+        brdfit(&[
+            "fit",
+            "data/blinn-mgo.csv",
+            "--json",
+            json.to_str().unwrap()
+        ])
+        .status
+        .success()
+    );
+    let o = brdfit(&["export", json.to_str().unwrap(), "--to", "mitsuba"]);
+    assert!(o.status.success() && String::from_utf8_lossy(&o.stdout).contains("roughplastic"));
+    let merl = dir.path().join("x.binary");
+    assert!(
+        brdfit(&[
+            "export",
+            json.to_str().unwrap(),
+            "--to",
+            "merl",
+            "-o",
+            merl.to_str().unwrap()
+        ])
+        .status
+        .success()
+    );
+    let info =
+        String::from_utf8_lossy(&brdfit(&["info", merl.to_str().unwrap()]).stdout).to_string();
+    assert!(info.contains("format:      merl"), "{info}");
+    expect_error(
+        &["export", json.to_str().unwrap(), "--to", "obj"],
+        &["unknown export format 'obj'"],
+    );
+    let o = brdfit(&["completions", "bash"]);
+    assert!(o.status.success() && String::from_utf8_lossy(&o.stdout).contains("_brdfit"));
+    // Batch: two files, one summary row each.
+    let sum = dir.path().join("sum.csv");
+    let o = brdfit(&[
+        "fit",
+        "data/blinn-mgo.csv",
+        "data/blinn-aluminium.csv",
+        "--jobs",
+        "2",
+        "--summary",
+        sum.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s = std::fs::read_to_string(&sum).unwrap();
+    assert_eq!(s.lines().count(), 3);
+    assert!(s.contains("blinn-mgo.csv") && s.contains("blinn-aluminium.csv"));
+    // A batch with a bad file reports it, still fits the others, and exits 1.
+    let bad = dir.path().join("bad.csv");
+    std::fs::write(
+        &bad,
+        "theta_i,phi_i_deg,theta_o_deg,phi_o_deg,brdf\n1,0,1,0,1\n",
+    )
+    .unwrap();
+    let o = brdfit(&[
+        "fit",
+        "data/blinn-mgo.csv",
+        bad.to_str().unwrap(),
+        "--summary",
+        sum.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("angle columns need a unit"));
+    assert_eq!(std::fs::read_to_string(&sum).unwrap().lines().count(), 2);
+}
