@@ -15,6 +15,7 @@
 pub mod data;
 pub mod export;
 pub mod fit;
+pub mod inverse;
 pub mod model;
 pub mod output;
 pub mod plot;

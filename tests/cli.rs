@@ -505,3 +505,82 @@ fn export_completions_and_batch() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("angle columns need a unit"));
     assert_eq!(std::fs::read_to_string(&sum).unwrap().lines().count(), 2);
 }
+
+#[test]
+fn inverse_command_end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(
+        dir.path(),
+        "s.toml",
+        br#"
+ambient = 0.1
+[camera]
+eye = [0.0, 0.0, 400.0]
+target = [0.0, 0.0, 0.0]
+fov = 0.35
+width = 121
+height = 121
+[antialias]
+mode = "none"
+[[lights]]
+kind = "directional"
+direction = [0.45, 0.2, 1.0]
+intensity = 3.14159265358979
+[materials.white]
+model = "lambert"
+params = { pd = 1.0 }
+[[objects]]
+kind = "sphere"
+center = [0.0, 0.0, 0.0]
+radius = 1.0
+material = "white"
+"#,
+    );
+    let img = dir.path().join("s.png");
+    let o = brdfit(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        img.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = dir.path().join("profile");
+    let o = brdfit(&[
+        "inverse",
+        dir.path().join("s.exr").to_str().unwrap(),
+        "--row",
+        "60",
+        "--light",
+        "0.45,0.2,1",
+        "--ca",
+        "0.1",
+        "--cd",
+        "1",
+        "--pixel-size",
+        "0.0202",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(dir.path().join("profile.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 122);
+    // The centre pixel sees the sphere's top: normal (0, 1) in (u, z).
+    let mid: Vec<&str> = csv.lines().nth(61).unwrap().split(',').collect();
+    let (nu, nz): (f64, f64) = (mid[8].parse().unwrap(), mid[9].parse().unwrap());
+    assert!(nu.abs() < 0.02 && nz > 0.999, "{nu} {nz}");
+    assert!(dir.path().join("profile.png").exists() && dir.path().join("profile.svg").exists());
+    expect_error(
+        &[
+            "inverse",
+            dir.path().join("s.exr").to_str().unwrap(),
+            "--light",
+            "0,0,1",
+            "--cd",
+            "1",
+            "-o",
+            out.to_str().unwrap(),
+        ],
+        &["no line given", "--row"],
+    );
+}
