@@ -15,6 +15,39 @@ use std::process::ExitCode;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Replace existing output files (directories such as reports/ are always regenerated).
+    #[arg(long, global = true)]
+    force: bool,
+    /// No progress bars or notes on stderr.
+    #[arg(long, short, global = true)]
+    quiet: bool,
+    /// More detail on stderr (timings).
+    #[arg(long, short, global = true)]
+    verbose: bool,
+}
+
+static FORCE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Refuse to replace an existing output file unless --force was given.
+fn guard(path: &Path) -> Result<()> {
+    if path.exists() && !FORCE.load(std::sync::atomic::Ordering::Relaxed) {
+        if path.is_dir() {
+            bail!(
+                "{}: is a directory\n  fix: give a file name",
+                path.display()
+            );
+        }
+        bail!(
+            "{}: the output exists\n  fix: choose another name, or add --force to replace it",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
+fn quiet() -> bool {
+    QUIET.load(std::sync::atomic::Ordering::Relaxed)
 }
 
 #[derive(Subcommand, Debug)]
@@ -37,9 +70,6 @@ enum Command {
         /// Resolution of the material renders.
         #[arg(long, default_value_t = 256)]
         render_res: u32,
-        /// No progress messages.
-        #[arg(long, short)]
-        quiet: bool,
     },
     /// Summarise a data file: format, samples, channels, quantity, angle coverage, value range.
     #[command(after_help = "Example:\n  brdfit info data/cayman.astm")]
@@ -117,9 +147,6 @@ enum Command {
         /// fig7: image resolution (square).
         #[arg(long, default_value_t = 512)]
         res: u32,
-        /// No progress bar.
-        #[arg(long, short)]
-        quiet: bool,
     },
     /// Export a fit to another renderer or format: mitsuba, pbrt, brdf-explorer, merl, csv.
     #[command(
@@ -849,7 +876,16 @@ fn run(cli: Cli) -> Result<()> {
             }
             out.meta.comments = vec![format!("brdfit eval: {m}")];
             match output {
-                Some(p) => Ok(data::write_csv(&out, &p)?),
+                Some(p) => {
+                    guard(&p)?;
+                    if same_file(&directions, &p) {
+                        bail!(
+                            "{}: the output would overwrite the input\n  fix: choose another output path",
+                            p.display()
+                        );
+                    }
+                    Ok(data::write_csv(&out, &p)?)
+                }
                 None => {
                     let mut buf = Vec::new();
                     data::write_csv_to(&out, &mut buf)?;
@@ -1078,9 +1114,13 @@ fn run(cli: Cli) -> Result<()> {
             };
             match (text, output) {
                 (Some(t), None) => print(&t),
-                (Some(t), Some(o)) => Ok(brdfit::output::write_bytes_atomic(&o, t.as_bytes())?),
+                (Some(t), Some(o)) => {
+                    guard(&o)?;
+                    Ok(brdfit::output::write_bytes_atomic(&o, t.as_bytes())?)
+                }
                 (None, None) => bail!("--to {to} writes a file\n  fix: add -o OUT"),
                 (None, Some(o)) => {
+                    guard(&o)?;
                     if same_file(&fit, &o) {
                         bail!(
                             "{}: the output would overwrite the input\n  fix: choose another output path",
@@ -1101,8 +1141,8 @@ fn run(cli: Cli) -> Result<()> {
             output,
             stability_starts,
             render_res,
-            quiet,
         } => {
+            let quiet = quiet();
             let files = if files.is_empty() {
                 let f = brdfit::report::bundled_files(Path::new("data"));
                 if f.is_empty() {
@@ -1139,14 +1179,13 @@ fn run(cli: Cli) -> Result<()> {
             aluminium,
             mgo,
             res,
-            quiet,
         } => run_render(
             &scene,
             &output,
             aluminium.as_deref(),
             mgo.as_deref(),
             res,
-            quiet,
+            quiet(),
         ),
         Command::Plot(cmd) => run_plot(cmd),
         Command::Study(cmd) => run_study(cmd),
@@ -1169,6 +1208,7 @@ fn run(cli: Cli) -> Result<()> {
                     output.display()
                 );
             }
+            guard(&output)?;
             if to_merl {
                 data::merl::write_merl(&ds, &output)?;
             } else {
@@ -1208,6 +1248,13 @@ fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
         }
     }
     if let Some(path) = &a.json {
+        guard(path)?;
+        if a.files.iter().any(|f| same_file(f, path)) {
+            bail!(
+                "{}: the output would overwrite an input\n  fix: choose another output path",
+                path.display()
+            );
+        }
         let flat: Vec<&brdfit::fit::FitResult> = all.iter().flat_map(|(_, f)| f).collect();
         let v = if flat.len() == 1 {
             flat[0].to_json()
@@ -1219,6 +1266,13 @@ fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
             .with_context(|| format!("writing {}", path.display()))?;
     }
     if let Some(path) = &a.summary {
+        guard(path)?;
+        if a.files.iter().any(|f| same_file(f, path)) {
+            bail!(
+                "{}: the output would overwrite an input\n  fix: choose another output path",
+                path.display()
+            );
+        }
         let text = if path.extension().is_some_and(|e| e == "json") {
             let rows: Vec<serde_json::Value> = all
                 .iter()
@@ -1417,6 +1471,7 @@ fn run_render(
         Some("png" | "exr") => output.with_extension(""),
         _ => output.to_path_buf(),
     };
+    guard(&base.with_extension("png"))?;
     render::save(&img, &base)?;
     Ok(())
 }
@@ -1430,7 +1485,11 @@ fn same_file(a: &Path, b: &Path) -> bool {
 
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
-        Ok(c) => c,
+        Ok(c) => {
+            FORCE.store(c.force, std::sync::atomic::Ordering::Relaxed);
+            QUIET.store(c.quiet, std::sync::atomic::Ordering::Relaxed);
+            c
+        }
         Err(e) => {
             let _ = e.print();
             return match e.kind() {

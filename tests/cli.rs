@@ -298,7 +298,7 @@ fn eval_simulate_convert_end_to_end() {
         std::fs::read(p).unwrap()
     };
     assert_eq!(s("3", "a.csv"), s("3", "b.csv"));
-    assert_ne!(s("3", "a.csv"), s("4", "c.csv"));
+    assert_ne!(s("3", "a2.csv"), s("4", "c.csv"));
     let o = brdfit(&[
         "simulate",
         "--model",
@@ -407,6 +407,16 @@ fn fit_command_end_to_end() {
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let n = v["params"]["n"].as_f64().unwrap();
     assert!((n - 1.8).abs() < 0.036, "n = {n}");
+    // An existing output is replaced only with --force.
+    expect_error(
+        &[
+            "fit",
+            "data/blinn-mgo.csv",
+            "--json",
+            json.to_str().unwrap(),
+        ],
+        &["the output exists", "--force"],
+    );
     let o = brdfit(&[
         "fit",
         "data/blinn-mgo.csv",
@@ -414,6 +424,7 @@ fn fit_command_end_to_end() {
         "all",
         "--json",
         json.to_str().unwrap(),
+        "--force",
     ]);
     assert!(o.status.success());
     let out = String::from_utf8_lossy(&o.stdout);
@@ -500,6 +511,7 @@ fn export_completions_and_batch() {
         bad.to_str().unwrap(),
         "--summary",
         sum.to_str().unwrap(),
+        "--force",
     ]);
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("angle columns need a unit"));
