@@ -28,6 +28,7 @@ struct Cli {
 
 static FORCE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+static VERBOSE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
 /// Refuse to replace an existing output file unless --force was given.
 fn guard(path: &Path) -> Result<()> {
@@ -44,6 +45,17 @@ fn guard(path: &Path) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// A progress bar on stderr, drawn only on a terminal and never with --quiet.
+fn progress_bar(len: u64, what: &str) -> indicatif::ProgressBar {
+    use std::io::IsTerminal;
+    if quiet() || !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(len);
+    bar.set_message(what.to_string());
+    bar
 }
 
 fn quiet() -> bool {
@@ -495,7 +507,15 @@ fn run_study(cmd: StudyCommand) -> Result<()> {
                         .model_for(0)
                 }
             };
-            let rows = study::stability(&reference, starts.clamp(1, 1000), 1500, seed);
+            let bar = progress_bar(16, "stability configurations");
+            let rows = study::stability_with_progress(
+                &reference,
+                starts.clamp(1, 1000),
+                1500,
+                seed,
+                &|| bar.inc(1),
+            );
+            bar.finish_and_clear();
             let title = format!("Stability from {starts} random starts around {reference}");
             plot::save(
                 &study::stability_chart(&title, &rows),
@@ -1228,7 +1248,19 @@ fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
     let results: Vec<Result<(String, Vec<brdfit::fit::FitResult>)>> = if a.files.len() == 1 {
         vec![fit_one(a, load, &a.files[0])]
     } else {
-        pool.install(|| a.files.par_iter().map(|f| fit_one(a, load, f)).collect())
+        let bar = progress_bar(a.files.len() as u64, "files");
+        let r = pool.install(|| {
+            a.files
+                .par_iter()
+                .map(|f| {
+                    let r = fit_one(a, load, f);
+                    bar.inc(1);
+                    r
+                })
+                .collect()
+        });
+        bar.finish_and_clear();
+        r
     };
     let mut all = Vec::new();
     let mut first_err = None;
@@ -1322,7 +1354,17 @@ fn fit_one(
     file: &Path,
 ) -> Result<(String, Vec<brdfit::fit::FitResult>)> {
     use brdfit::fit::{self, FitOptions, RobustKind, lsq::Method, problem::Loss};
+    let t = std::time::Instant::now();
     let ds = load.load(file)?;
+    if VERBOSE.load(std::sync::atomic::Ordering::Relaxed) {
+        eprintln!(
+            "{}: {} samples, {} channel(s) read in {:.3} s",
+            file.display(),
+            ds.len(),
+            ds.channels.len(),
+            t.elapsed().as_secs_f64()
+        );
+    }
     let dist = Distribution::parse(&a.distribution).ok_or_else(|| {
         anyhow!(
             "unknown distribution '{}'\n  fix: use --distribution d1, d2 or d3",
@@ -1463,7 +1505,7 @@ fn run_render(
     let bar = if quiet {
         indicatif::ProgressBar::hidden()
     } else {
-        indicatif::ProgressBar::new(s.camera.height as u64)
+        progress_bar(s.camera.height as u64, "rows")
     };
     let img = s.render(&|| bar.inc(1));
     bar.finish_and_clear();
@@ -1488,6 +1530,7 @@ fn main() -> ExitCode {
         Ok(c) => {
             FORCE.store(c.force, std::sync::atomic::Ordering::Relaxed);
             QUIET.store(c.quiet, std::sync::atomic::Ordering::Relaxed);
+            VERBOSE.store(c.verbose && !c.quiet, std::sync::atomic::Ordering::Relaxed);
             c
         }
         Err(e) => {

@@ -304,6 +304,17 @@ pub struct StabilityRow {
 /// a run reaches it when its cost is within 1e-6 relative (Nelder–Mead's own tolerance) or,
 /// for noise-free data whose minimum is 0, within 1e-12 per sample.
 pub fn stability(reference: &Model, starts: usize, samples: usize, seed: u64) -> Vec<StabilityRow> {
+    stability_with_progress(reference, starts, samples, seed, &|| {})
+}
+
+/// [`stability`], calling `progress` after each of the 16 configurations.
+pub fn stability_with_progress(
+    reference: &Model,
+    starts: usize,
+    samples: usize,
+    seed: u64,
+    progress: &(dyn Fn() + Sync),
+) -> Vec<StabilityRow> {
     let noises = [0.0, 0.01, 0.05, 0.20];
     let configs: Vec<(f64, Pattern)> = noises
         .iter()
@@ -348,6 +359,7 @@ pub fn stability(reference: &Model, starts: usize, samples: usize, seed: u64) ->
                 .flat_map(|r| r.2.iter())
                 .cloned()
                 .fold(f64::INFINITY, f64::min);
+            progress();
             runs.into_iter()
                 .map(|(method, global, costs)| StabilityRow {
                     noise,
