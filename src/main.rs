@@ -415,6 +415,16 @@ enum StudyCommand {
     },
 }
 
+/// Write a study's tables as OUTPUT/NAME.md (with its title) and OUTPUT/NAME.csv.
+fn write_study_tables(output: &Path, name: &str, title: &str, md: &str, csv: &str) -> Result<()> {
+    brdfit::output::write_bytes_atomic(
+        &output.join(format!("{name}.md")),
+        format!("# {title}\n\n{md}").as_bytes(),
+    )?;
+    brdfit::output::write_bytes_atomic(&output.join(format!("{name}.csv")), csv.as_bytes())?;
+    Ok(())
+}
+
 fn study_input(data: &Path, load: &LoadArgs) -> Result<Dataset> {
     let ds = load.load(data)?;
     Ok(if ds.channels.len() > 1 && load.channel.is_none() {
@@ -449,9 +459,10 @@ fn run_study(cmd: StudyCommand) -> Result<()> {
                 .and_then(|py| study::scipy_peer(&ds, py, &peer_script))
             {
                 Some(r) => rows.push(r),
-                None => eprintln!(
+                None if !quiet() => eprintln!(
                     "note: scipy peer not run (give --peer-python with numpy and scipy, and --peer-script)"
                 ),
+                None => {}
             }
             let title = format!("Speed against accuracy: {}", data.display());
             plot::save(
@@ -459,11 +470,7 @@ fn run_study(cmd: StudyCommand) -> Result<()> {
                 &output.join("speed-accuracy"),
             )?;
             let (md, csv) = study::speed_tables(&rows, true);
-            brdfit::output::write_bytes_atomic(
-                &output.join("speed-accuracy.md"),
-                format!("# {title}\n\n{md}").as_bytes(),
-            )?;
-            brdfit::output::write_bytes_atomic(&output.join("speed-accuracy.csv"), csv.as_bytes())?;
+            write_study_tables(&output, "speed-accuracy", &title, &md, &csv)?;
             print(&md)
         }
         StudyCommand::Render { res, scene, output } => {
@@ -471,9 +478,11 @@ fn run_study(cmd: StudyCommand) -> Result<()> {
                 Some(p) => study::render_study_scenes(&[brdfit::render::scene::load_scene(p)?]),
                 None => study::render_study(res.clamp(8, 2048)),
             };
-            let title = format!(
-                "Anti-aliasing: image error against rays per pixel (Figure 7 scenes, {res}×{res})"
-            );
+            let what = match &scene {
+                Some(p) => p.display().to_string(),
+                None => format!("Figure 7 scenes, {res}×{res}"),
+            };
+            let title = format!("Anti-aliasing: image error against rays per pixel ({what})");
             plot::save(
                 &study::render_chart(&title, &rows, false),
                 &output.join("render-study"),
@@ -483,11 +492,7 @@ fn run_study(cmd: StudyCommand) -> Result<()> {
                 &output.join("render-study-time"),
             )?;
             let (md, csv) = study::render_tables(&rows, true);
-            brdfit::output::write_bytes_atomic(
-                &output.join("render-study.md"),
-                format!("# {title}\n\n{md}").as_bytes(),
-            )?;
-            brdfit::output::write_bytes_atomic(&output.join("render-study.csv"), csv.as_bytes())?;
+            write_study_tables(&output, "render-study", &title, &md, &csv)?;
             print(&md)
         }
         StudyCommand::Stability {
@@ -522,11 +527,7 @@ fn run_study(cmd: StudyCommand) -> Result<()> {
                 &output.join("stability"),
             )?;
             let (md, csv) = study::stability_tables(&rows);
-            brdfit::output::write_bytes_atomic(
-                &output.join("stability.md"),
-                format!("# {title}\n\n{md}").as_bytes(),
-            )?;
-            brdfit::output::write_bytes_atomic(&output.join("stability.csv"), csv.as_bytes())?;
+            write_study_tables(&output, "stability", &title, &md, &csv)?;
             print(&md)
         }
     }

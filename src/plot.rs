@@ -72,6 +72,57 @@ pub fn encode_png(w: u32, h: u32, rgb: &[u8]) -> Result<Vec<u8>> {
     Ok(out)
 }
 
+type XyContext<'a, DB> = ChartContext<
+    'a,
+    DB,
+    plotters::coord::cartesian::Cartesian2d<
+        plotters::coord::types::RangedCoordf64,
+        plotters::coord::types::RangedCoordf64,
+    >,
+>;
+
+/// One labelled series: markers of `radius` pixels, or a line.
+fn draw_series<'a, DB: DrawingBackend + 'a>(
+    chart: &mut XyContext<'a, DB>,
+    xy: Vec<(f64, f64)>,
+    label: &str,
+    markers: bool,
+    radius: u32,
+    color: RGBColor,
+) -> Result<()> {
+    if markers {
+        chart
+            .draw_series(xy.iter().map(|p| Circle::new(*p, radius, color.filled())))
+            .map_err(err)?
+            .label(label)
+            .legend(move |(x, y)| Circle::new((x + 9, y), 3, color.filled()));
+    } else {
+        chart
+            .draw_series(LineSeries::new(xy, color.stroke_width(2)))
+            .map_err(err)?
+            .label(label)
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+            });
+    }
+    Ok(())
+}
+
+/// The legend box.
+fn draw_legend<'a, DB: DrawingBackend + 'a>(
+    chart: &mut XyContext<'a, DB>,
+    pos: SeriesLabelPosition,
+) -> Result<()> {
+    chart
+        .configure_series_labels()
+        .position(pos)
+        .label_font(("sans-serif", 11))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(err)
+}
+
 const PALETTE: [RGBColor; 6] = [
     RGBColor(0, 90, 181),
     RGBColor(220, 50, 32),
@@ -316,30 +367,9 @@ impl Chart for LobeChart {
                         (r * a.sin(), r * a.cos())
                     })
                     .collect();
-                if s.markers {
-                    chart
-                        .draw_series(xy.iter().map(|p| Circle::new(*p, 2, color.filled())))
-                        .map_err(err)?
-                        .label(s.label.clone())
-                        .legend(move |(x, y)| Circle::new((x + 9, y), 3, color.filled()));
-                } else {
-                    chart
-                        .draw_series(LineSeries::new(xy, color.stroke_width(2)))
-                        .map_err(err)?
-                        .label(s.label.clone())
-                        .legend(move |(x, y)| {
-                            PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
-                        });
-                }
+                draw_series(&mut chart, xy, &s.label, s.markers, 2, color)?;
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperLeft)
-                .label_font(("sans-serif", 11))
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .draw()
-                .map_err(err)?;
+            draw_legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
         }
         Ok(())
     }
@@ -506,30 +536,9 @@ impl Chart for XyChart {
                 .filter(|p| (!self.log_x || p.0 > 0.0) && (!self.log_y || p.1 > 0.0))
                 .map(|p| (tx(p.0), ty(p.1)))
                 .collect();
-            if s.markers {
-                chart
-                    .draw_series(xy.iter().map(|p| Circle::new(*p, 3, color.filled())))
-                    .map_err(err)?
-                    .label(s.label.clone())
-                    .legend(move |(x, y)| Circle::new((x + 9, y), 3, color.filled()));
-            } else {
-                chart
-                    .draw_series(LineSeries::new(xy, color.stroke_width(2)))
-                    .map_err(err)?
-                    .label(s.label.clone())
-                    .legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
-                    });
-            }
+            draw_series(&mut chart, xy, &s.label, s.markers, 3, color)?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font(("sans-serif", 11))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(err)?;
+        draw_legend(&mut chart, SeriesLabelPosition::UpperRight)?;
         Ok(())
     }
 }

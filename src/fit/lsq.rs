@@ -303,6 +303,16 @@ fn scale_diag(n: &Normal, dim: usize) -> Vec<f64> {
         .collect()
 }
 
+/// The scaled-gradient convergence test: max |(Jᵀr)_i|/√d_i ≤ gtol·√(2 cost), or a zero cost.
+fn gradient_small(ne: &Normal, d: &[f64], gtol: f64) -> bool {
+    let gmax = d
+        .iter()
+        .zip(&ne.jtr)
+        .map(|(di, g)| g.abs() / di.sqrt())
+        .fold(0.0f64, f64::max);
+    gmax <= gtol * (2.0 * ne.cost).sqrt().max(1e-300) || ne.cost == 0.0
+}
+
 /// Minimise with the chosen method from `x0` (projected onto the bounds first).
 pub fn solve<P: Problem>(
     p: &P,
@@ -357,10 +367,7 @@ pub fn levenberg_marquardt<P: Problem>(
             break;
         }
         // Scaled gradient test.
-        let gmax = (0..dim)
-            .map(|i| ne.jtr[i].abs() / d[i].sqrt())
-            .fold(0.0f64, f64::max);
-        if gmax <= limits.gtol * (2.0 * ne.cost).sqrt().max(1e-300) || ne.cost == 0.0 {
+        if gradient_small(&ne, &d, limits.gtol) {
             termination = "gradient below tolerance".into();
             converged = true;
             break;
@@ -481,10 +488,7 @@ pub fn gauss_newton<P: Problem>(p: &P, x0: &[f64], robust: Robust, limits: &Limi
     let mut converged = false;
     while iter < limits.max_iter && evals < limits.max_eval {
         let d = scale_diag(&ne, dim);
-        let gmax = (0..dim)
-            .map(|i| ne.jtr[i].abs() / d[i].sqrt())
-            .fold(0.0f64, f64::max);
-        if gmax <= limits.gtol * (2.0 * ne.cost).sqrt().max(1e-300) || ne.cost == 0.0 {
+        if gradient_small(&ne, &d, limits.gtol) {
             termination = "gradient below tolerance".into();
             converged = true;
             break;
