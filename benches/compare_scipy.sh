@@ -29,7 +29,7 @@ for n in $SIZES; do
     extra=""
     [ "$mode" = "local-only" ] && extra="--local-only"
     for i in 1 2 3 4 5; do
-      $BIN fit "$csv" --start "$START" $extra --json "$TMP/fit-$i.json" > /dev/null
+      $BIN fit "$csv" --start "$START" $extra --json "$TMP/fit-$i.json" --force > /dev/null
     done
     $PYTHON - "$TMP" "$n" "$mode" "$peer" <<'PY'
 import json, statistics, sys
