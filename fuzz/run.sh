@@ -8,7 +8,7 @@ SECONDS_EACH=${1:-600}
 export RUSTC_BOOTSTRAP=1
 mkdir -p logs
 cargo fuzz build -O
-run() { cargo fuzz run -O "$1" "corpus/$1" -- -max_total_time="$SECONDS_EACH" -timeout=10 -rss_limit_mb=2048 > "logs/$1.log" 2>&1; echo "$1: exit $?" >> logs/summary.txt; }
+run() { mkdir -p "corpus/$1"; cargo fuzz run -O "$1" "corpus/$1" -- -max_total_time="$SECONDS_EACH" -timeout=10 -rss_limit_mb=2048 > "logs/$1.log" 2>&1; echo "$1: exit $?" >> logs/summary.txt; }
 : > logs/summary.txt
 run csv & run astm & wait
 run cornell & run scene & wait
