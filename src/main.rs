@@ -268,15 +268,8 @@ enum PlotCommand {
         /// Fit JSON files whose models are drawn (repeat for several).
         #[arg(long)]
         fit: Vec<PathBuf>,
-        /// A model to draw from --model/--set instead of (or besides) fits.
-        #[arg(long)]
-        model: Option<String>,
-        /// Distribution of --model torrance-sparrow.
-        #[arg(long, default_value = "d3")]
-        distribution: String,
-        /// Parameters of --model, NAME=VALUE.
-        #[arg(long = "set", value_delimiter = ',')]
-        set: Vec<String>,
+        #[command(flatten)]
+        model: OptModelArgs,
         /// Measured data whose in-plane samples are overlaid.
         #[arg(long)]
         data: Option<PathBuf>,
@@ -535,7 +528,7 @@ fn run_study(cmd: StudyCommand) -> Result<()> {
 
 #[derive(Args, Debug, Clone)]
 struct OptModelArgs {
-    /// Model instead of a fit: lambert, phong, blinn-phong, torrance-sparrow.
+    /// A model (instead of or besides a fit): lambert, phong, blinn-phong, torrance-sparrow.
     #[arg(long)]
     model: Option<String>,
     /// Distribution of torrance-sparrow.
@@ -602,8 +595,6 @@ fn run_plot(cmd: PlotCommand) -> Result<()> {
         PlotCommand::Lobe {
             fit,
             model,
-            distribution,
-            set,
             data,
             theta_i,
             quantity,
@@ -625,14 +616,7 @@ fn run_plot(cmd: PlotCommand) -> Result<()> {
                     models.push((format!("{} fit ({})", r.label(), r.channel), r.model_for(0)));
                 }
             }
-            if let Some(m) = model {
-                let m = ModelArgs {
-                    model: m,
-                    distribution,
-                    set,
-                    fast_pow: None,
-                }
-                .build()?;
+            if let Some(m) = model.build()? {
                 models.push((format!("{m}"), m));
             }
             if models.is_empty() && data.is_none() {
