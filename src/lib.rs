@@ -16,6 +16,7 @@ pub mod data;
 pub mod export;
 pub mod fit;
 pub mod inverse;
+pub mod lanes;
 pub mod model;
 pub mod output;
 pub mod plot;

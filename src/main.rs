@@ -753,6 +753,10 @@ struct FitArgs {
     /// Phong only: fast power approximation with γ = 2^K.
     #[arg(long, value_name = "K")]
     fast_pow: Option<u32>,
+    /// Benchmarking: run each fit N times in this process and report the median time in
+    /// `seconds` (the results are identical every time; the peer scripts time the same way).
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    repeat: u32,
     /// Write the fit(s) as JSON to this file.
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
@@ -1411,7 +1415,20 @@ fn fit_one(
             .collect();
         o.local_only = a.local_only;
         o.fast_pow = a.fast_pow;
-        let fits = fit::fit(&ds, &o).map_err(|e| anyhow!("{}: {e}", file.display()))?;
+        let mut fits = fit::fit(&ds, &o).map_err(|e| anyhow!("{}: {e}", file.display()))?;
+        if a.repeat > 1 {
+            let mut times: Vec<Vec<f64>> = fits.iter().map(|f| vec![f.seconds]).collect();
+            for _ in 1..a.repeat {
+                let again = fit::fit(&ds, &o).map_err(|e| anyhow!("{}: {e}", file.display()))?;
+                for (t, f) in times.iter_mut().zip(&again) {
+                    t.push(f.seconds);
+                }
+            }
+            for (f, t) in fits.iter_mut().zip(&mut times) {
+                t.sort_by(f64::total_cmp);
+                f.seconds = t[t.len() / 2];
+            }
+        }
         all.push(fits);
     }
     let mut text = String::new();
@@ -1511,6 +1528,9 @@ fn same_file(a: &Path, b: &Path) -> bool {
 }
 
 fn main() -> ExitCode {
+    // Start rayon's worker threads now, while the arguments are parsed and the input is read,
+    // rather than inside the first timed parallel pass.
+    let _ = rayon::current_num_threads();
     let cli = match Cli::try_parse() {
         Ok(c) => {
             FORCE.store(c.force, std::sync::atomic::Ordering::Relaxed);

@@ -3,7 +3,7 @@
 
 use brdfit::data::{self, ChannelSelect, Dataset, LoadOptions, Quantity};
 use brdfit::fit::lsq::{self, Problem, Robust};
-use brdfit::fit::problem::{BrdfProblem, Loss, Row, Slot, Transform};
+use brdfit::fit::problem::{BrdfProblem, Loss, Row, Rows, Slot, Transform};
 use brdfit::fit::{self, FitOptions, FitResult};
 use brdfit::model::{Distribution, Geometry, Model, ModelKind};
 use brdfit::simulate::{Grid, simulate};
@@ -154,7 +154,7 @@ fn small_problem(loss: Loss) -> BrdfProblem {
     }
     BrdfProblem {
         template: Model::blinn_mgo(),
-        rows: rows.into(),
+        rows: std::sync::Arc::new(Rows::from(rows)),
         starts,
         layout: vec![
             [Slot::Free(0), Slot::Free(1), Slot::Free(2), Slot::Free(3)],

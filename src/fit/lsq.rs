@@ -214,14 +214,23 @@ pub struct Normal {
 
 const CHUNK: usize = 4096;
 
+/// `f` of every chunk of `m` residuals, in chunk order: in parallel when there are enough
+/// chunks to repay waking the thread pool, else on this thread (the same values either way).
+fn map_chunks<T: Send>(m: usize, f: impl Fn(std::ops::Range<usize>) -> T + Sync) -> Vec<T> {
+    let n = m.div_ceil(CHUNK);
+    let range = |c: usize| c * CHUNK..((c + 1) * CHUNK).min(m);
+    if n <= 8 {
+        (0..n).map(range).map(f).collect()
+    } else {
+        (0..n).into_par_iter().map(|c| f(range(c))).collect()
+    }
+}
+
 /// Cost Σ ρ(r_i) at `x`; `None` where `x` is inadmissible or the cost is not finite.
 pub fn cost<P: Problem>(p: &P, x: &[f64], robust: Robust) -> Option<f64> {
     let prep = p.prepare(x)?;
     let m = p.n_residuals();
-    let parts: Vec<f64> = (0..m.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| p.cost_range(&prep, c * CHUNK..((c + 1) * CHUNK).min(m), robust))
-        .collect();
+    let parts: Vec<f64> = map_chunks(m, |r| p.cost_range(&prep, r, robust));
     let s: f64 = parts.iter().sum();
     s.is_finite().then_some(s)
 }
@@ -231,18 +240,15 @@ pub fn normal_equations<P: Problem>(p: &P, x: &[f64], robust: Robust) -> Option<
     let prep = p.prepare(x)?;
     let n = p.dim();
     let m = p.n_residuals();
-    let parts: Vec<Normal> = (0..m.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            let mut acc = Normal {
-                cost: 0.0,
-                jtj: vec![0.0; n * n],
-                jtr: vec![0.0; n],
-            };
-            p.accumulate(&prep, c * CHUNK..((c + 1) * CHUNK).min(m), robust, &mut acc);
-            acc
-        })
-        .collect();
+    let parts: Vec<Normal> = map_chunks(m, |r| {
+        let mut acc = Normal {
+            cost: 0.0,
+            jtj: vec![0.0; n * n],
+            jtr: vec![0.0; n],
+        };
+        p.accumulate(&prep, r, robust, &mut acc);
+        acc
+    });
     let mut out = Normal {
         cost: 0.0,
         jtj: vec![0.0; n * n],

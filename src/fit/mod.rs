@@ -2,12 +2,12 @@
 //!
 //! The pipeline for one data set (and one channel, or several with `shared` parameters):
 //! 1. samples are converted to f_r and filtered (finite values, `max_theta`); the geometry of
-//!    each sample is computed once ([`problem::Row`]);
+//!    each sample is computed once ([`problem::Rows`]);
 //! 2. **global initialisation** (variable projection): ps and pd enter the model linearly, so a
 //!    small grid over the nonlinear parameters (F0 = ((n−1)/(n+1))² and c3, or c1/c2) with a
 //!    weighted linear solve for (ps, pd) at each point finds the basin; it runs on a subsample;
 //! 3. the local method (Levenberg–Marquardt by default) from the best grid points and the
-//!    user's `start`, first on a subsample of at most 20,000 rows per channel, then on all rows;
+//!    user's `start`, first on a subsample of at most 2,000 rows per channel, then on all rows;
 //! 4. statistics in natural parameters from JᵀJ at the solution: standard errors,
 //!    correlations, and honest warnings (with a profiled range) for parameters the data do not
 //!    determine.
@@ -16,9 +16,11 @@ pub mod lsq;
 pub mod problem;
 
 use crate::data::Dataset;
+use crate::lanes::{self, LANES};
+use crate::model::Geometry;
 use crate::model::{Distribution, Model, ModelKind, param_bounds};
 use lsq::{Limits, Method, Problem, Robust, Solution};
-use problem::{BrdfProblem, Loss, Row, Slot, Transform, init_grid, linear_index};
+use problem::{BrdfProblem, Loss, Row, Rows, Slot, Transform, init_grid, linear_index};
 use std::time::Instant;
 
 /// A fit that cannot be run, with the fix.
@@ -299,45 +301,27 @@ impl FitResult {
 /// One channel's usable samples, converted to f_r.
 struct ChannelRows {
     name: String,
-    rows: Vec<Row>,
+    rows: Rows,
     /// θi when every row has the same incidence angle.
     one_incidence: Option<f64>,
     all_zero: bool,
 }
 
 fn channel_rows(ds: &Dataset, c: usize, opts: &FitOptions) -> ChannelRows {
-    use rayon::prelude::*;
-    let q = ds.quantity;
     let vals = &ds.channels[c].values;
     let max = opts.max_theta_deg.map(f64::to_radians);
-    // Geometry of every sample in parallel; the order of the result is the sample order.
-    let rows: Vec<Row> = (0..ds.len())
-        .into_par_iter()
-        .with_min_len(4096)
-        .filter_map(|k| {
-            let a = ds.angles(k);
-            let v = match q {
-                crate::data::Quantity::Brdf => vals[k],
-                _ => vals[k] * q.to_brdf_factor(a[0].cos()),
-            };
-            if !v.is_finite() || max.is_some_and(|m| a[0] > m || a[2] > m) {
-                return None;
-            }
-            let w = ds.weights.as_ref().map_or(1.0, |w| w[k]);
-            let g = crate::model::Geometry::from_angles(a[0], a[1], a[2], a[3]);
-            (w > 0.0 && g.visible()).then(|| Row {
-                g,
-                cos_i: g.nl,
-                target: opts.loss.target(v, g.nl),
-                sw: w.sqrt(),
-            })
-        })
-        .collect();
-    let all_zero = rows
-        .iter()
-        .all(|r| opts.loss.target(0.0, r.cos_i) == r.target);
-    let first = rows.first().map(|r| r.cos_i);
-    let one_incidence = first.is_some_and(|c0| rows.iter().all(|r| (r.cos_i - c0).abs() < 1e-12));
+    let weighted = ds
+        .weights
+        .as_ref()
+        .is_some_and(|w| w.iter().any(|&v| v != 1.0));
+    // Geometry of every sample, in parallel over fixed chunks joined in sample order.
+    let rows = Rows::par_fill(ds.len(), weighted, |range, cols| {
+        fill_rows(ds, vals, max, opts.loss, range, cols)
+    });
+    // ln(1 + 0) = 0 and f = 0: a zero target is a zero value under either loss.
+    let all_zero = rows.target.iter().all(|&t| t == 0.0);
+    let first = rows.nl.first().copied();
+    let one_incidence = first.is_some_and(|c0| rows.nl.iter().all(|c| (c - c0).abs() < 1e-12));
     let name = ds.channels[c].name.clone();
     ChannelRows {
         name: if name.is_empty() {
@@ -349,6 +333,72 @@ fn channel_rows(ds: &Dataset, c: usize, opts: &FitOptions) -> ChannelRows {
         one_incidence: one_incidence.then(|| first.unwrap_or(1.0).acos()),
         all_zero,
     }
+}
+
+/// Rows of samples `range` of channel values `vals` written to the front of `cols` (the
+/// layout of [`Rows::write`]); returns how many were kept. [`LANES`] samples at a time, so
+/// the trigonometry and logarithms vectorise; compiled for AVX-512 and AVX2 as well and picked
+/// at run time.
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn fill_rows(
+    ds: &Dataset,
+    vals: &[f64],
+    max: Option<f64>,
+    loss: Loss,
+    range: std::ops::Range<usize>,
+    mut cols: [&mut [f64]; 8],
+) -> usize {
+    let q = ds.quantity;
+    let mut kept = 0;
+    // LANES samples at a time, so the trigonometry and logarithms vectorise.
+    let mut k = range.start;
+    while k < range.end {
+        let n = (range.end - k).min(LANES);
+        let (mut ti, mut to, mut dphi) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+        for l in 0..n {
+            let a = ds.angles(k + l);
+            (ti[l], to[l], dphi[l]) = (a[0], a[2], a[3] - a[1]);
+        }
+        let (si, ci) = lanes::sin_cos(&ti);
+        let (so, co) = lanes::sin_cos(&to);
+        let (_, cp) = lanes::sin_cos(&dphi);
+        let mut v = [0.0; LANES];
+        let mut y = [0.0; LANES];
+        for l in 0..n {
+            v[l] = match q {
+                crate::data::Quantity::Brdf => vals[k + l],
+                _ => vals[k + l] * q.to_brdf_factor(ci[l]),
+            };
+            y[l] = ci[l] * v[l];
+        }
+        let target = match loss {
+            Loss::Log => lanes::ln_1p(&y).0,
+            Loss::Linear => v,
+        };
+        // L·E = sinθi sinθo cos(φo − φi) + cosθi cosθo.
+        let geo: [Geometry; LANES] = std::array::from_fn(|l| {
+            Geometry::from_cosines(ci[l], co[l], si[l] * so[l] * cp[l] + ci[l] * co[l])
+        });
+        for l in 0..n {
+            if !v[l].is_finite() || max.is_some_and(|m| ti[l] > m || to[l] > m) {
+                continue;
+            }
+            let w = ds.weights.as_ref().map_or(1.0, |w| w[k + l]);
+            let g = geo[l];
+            if w > 0.0 && g.visible() {
+                let row = Row {
+                    g,
+                    cos_i: g.nl,
+                    target: target[l],
+                    sw: w.sqrt(),
+                };
+                Rows::write(&mut cols, kept, &row);
+                kept += 1;
+            }
+        }
+        k += n;
+    }
+    kept
 }
 
 /// Fit `opts.kind` to every channel of `ds` (or jointly with `opts.shared`).
@@ -498,12 +548,12 @@ fn fit_group(
         }
     }
     let mut starts = vec![0];
-    let mut rows = Vec::new();
+    let mut rows = Rows::default();
     for c in chans {
         if rows.is_empty() {
             rows = c.rows;
         } else {
-            rows.extend_from_slice(&c.rows);
+            rows.extend(&c.rows);
         }
         starts.push(rows.len());
     }
@@ -784,6 +834,22 @@ fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> V
             })
             .collect();
     }
+    // Per row: the data f_r and the weight that linearises the loss (parameter-free).
+    let data: Vec<(f64, f64)> = (0..p.rows.len())
+        .map(|i| {
+            let r = p.rows.get(i);
+            let fd = match opts.loss {
+                Loss::Log => r.target.exp_m1() / r.cos_i,
+                Loss::Linear => r.target,
+            };
+            let w = match opts.loss {
+                Loss::Log => (r.cos_i / (1.0 + r.cos_i * fd)).powi(2),
+                Loss::Linear => 1.0,
+            } * r.sw
+                * r.sw;
+            (fd, w)
+        })
+        .collect();
     use rayon::prelude::*;
     let mut scored: Vec<(f64, Vec<f64>)> = points
         .par_iter()
@@ -795,7 +861,7 @@ fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> V
             }
             for c in 0..p.layout.len() {
                 let slots = p.layout[c];
-                let rows = &p.rows[p.starts[c]..p.starts[c + 1]];
+                let rows = p.starts[c]..p.starts[c + 1];
                 // Model with ps = 1, pd = 0 gives the specular basis; pd's basis is 1/π.
                 let mut vals = [0.0; 4];
                 for j in 0..names.len() {
@@ -818,18 +884,10 @@ fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> V
                     _ => None,
                 };
                 let (mut a11, mut a12, mut a22, mut b1, mut b2) = (0.0, 0.0, 0.0, 0.0, 0.0);
-                for r in rows {
-                    let fd = match opts.loss {
-                        Loss::Log => r.target.exp_m1() / r.cos_i,
-                        Loss::Linear => r.target,
-                    };
-                    let w = match opts.loss {
-                        Loss::Log => (r.cos_i / (1.0 + r.cos_i * fd)).powi(2),
-                        Loss::Linear => 1.0,
-                    } * r.sw
-                        * r.sw;
+                for i in rows {
+                    let (fd, w) = data[i];
                     let s = if ips.is_some() {
-                        spec_model.brdf(&r.g)
+                        spec_model.brdf(&p.rows.get(i).g)
                     } else {
                         0.0
                     };

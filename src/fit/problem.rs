@@ -2,6 +2,7 @@
 //! their bounds hold by construction, residuals of the `log` or `linear` loss.
 
 use super::lsq::{Normal, Problem, Robust};
+use crate::lanes::{self, LANES};
 use crate::model::{Distribution, Geometry, Model, ModelKind, f0_from_n};
 
 /// Which residual the fit minimises (½ Σ r²).
@@ -150,13 +151,209 @@ pub struct Row {
     pub sw: f64,
 }
 
+/// Rows stored column by column (structure of arrays), so a kernel streams only the columns
+/// its model reads and can work on several rows at once.
+#[derive(Clone, Debug, Default)]
+pub struct Rows {
+    /// N·L (= cosθi).
+    pub nl: Vec<f64>,
+    /// N·E.
+    pub ne: Vec<f64>,
+    /// N·H.
+    pub nh: Vec<f64>,
+    /// E·H.
+    pub eh: Vec<f64>,
+    /// R·E.
+    pub re: Vec<f64>,
+    /// G/(N·E).
+    pub g_ne: Vec<f64>,
+    /// ln(1 + cosθi f_data) or f_data.
+    pub target: Vec<f64>,
+    /// √weight; empty when the rows are unweighted (every weight 1).
+    pub sw: Vec<f64>,
+    weighted: bool,
+}
+
+impl Rows {
+    /// Empty columns with room for `n` rows.
+    pub fn with_capacity(n: usize, weighted: bool) -> Self {
+        let v = || Vec::with_capacity(n);
+        Rows {
+            nl: v(),
+            ne: v(),
+            nh: v(),
+            eh: v(),
+            re: v(),
+            g_ne: v(),
+            target: v(),
+            sw: if weighted { v() } else { Vec::new() },
+            weighted,
+        }
+    }
+
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.nl.len()
+    }
+
+    /// True when there are no rows.
+    pub fn is_empty(&self) -> bool {
+        self.nl.is_empty()
+    }
+
+    /// True when the rows carry a weight column.
+    pub fn weighted(&self) -> bool {
+        self.weighted
+    }
+
+    /// Append a row (its weight is kept only if the columns are weighted).
+    pub fn push(&mut self, r: &Row) {
+        self.nl.push(r.g.nl);
+        self.ne.push(r.g.ne);
+        self.nh.push(r.g.nh);
+        self.eh.push(r.g.eh);
+        self.re.push(r.g.re);
+        self.g_ne.push(r.g.g_ne);
+        self.target.push(r.target);
+        if self.weighted {
+            self.sw.push(r.sw);
+        }
+    }
+
+    /// Row `i`.
+    #[inline]
+    pub fn get(&self, i: usize) -> Row {
+        let g = Geometry {
+            nl: self.nl[i],
+            ne: self.ne[i],
+            nh: self.nh[i],
+            eh: self.eh[i],
+            re: self.re[i],
+            g_ne: self.g_ne[i],
+        };
+        Row {
+            g,
+            cos_i: g.nl,
+            target: self.target[i],
+            sw: self.sw.get(i).copied().unwrap_or(1.0),
+        }
+    }
+
+    /// Rows from `n` inputs, filled in parallel over fixed chunks: `fill(range, cols)` writes the
+    /// rows it keeps from inputs `range` to the front of its column slices (in the order of
+    /// [`Rows::columns`]) and returns how many it kept; the kept rows are joined in input order.
+    /// The columns are allocated once at full size and compacted in place.
+    pub fn par_fill<F>(n: usize, weighted: bool, fill: F) -> Rows
+    where
+        F: Fn(std::ops::Range<usize>, [&mut [f64]; 8]) -> usize + Sync,
+    {
+        use rayon::prelude::*;
+        const CHUNK: usize = 16_384;
+        let mut cols: [Vec<f64>; 8] = std::array::from_fn(|_| vec![0.0; n]);
+        let counts: Vec<usize> = if n <= CHUNK {
+            let [a, b, c, d, e, f, g, h] = &mut cols;
+            vec![fill(0..n, [a, b, c, d, e, f, g, h]).min(n)]
+        } else {
+            let [a, b, c, d, e, f, g, h] = &mut cols;
+            (
+                a.par_chunks_mut(CHUNK),
+                b.par_chunks_mut(CHUNK),
+                c.par_chunks_mut(CHUNK),
+                d.par_chunks_mut(CHUNK),
+                e.par_chunks_mut(CHUNK),
+                f.par_chunks_mut(CHUNK),
+                g.par_chunks_mut(CHUNK),
+                h.par_chunks_mut(CHUNK),
+            )
+                .into_par_iter()
+                .enumerate()
+                .map(|(k, (a, b, c, d, e, f, g, h))| {
+                    let range = k * CHUNK..(k * CHUNK + a.len());
+                    fill(range, [a, b, c, d, e, f, g, h]).min(a.len())
+                })
+                .collect()
+        };
+        let mut kept = 0;
+        for (k, &count) in counts.iter().enumerate() {
+            let from = k * CHUNK;
+            if from != kept {
+                for col in cols.iter_mut() {
+                    col.copy_within(from..from + count, kept);
+                }
+            }
+            kept += count;
+        }
+        let [nl, ne, nh, eh, re, g_ne, target, mut sw] = cols.map(|mut c| {
+            c.truncate(kept);
+            c
+        });
+        if !weighted {
+            sw = Vec::new();
+        }
+        Rows {
+            nl,
+            ne,
+            nh,
+            eh,
+            re,
+            g_ne,
+            target,
+            sw,
+            weighted,
+        }
+    }
+
+    /// Write row `r` at index `i` of columns in the order nl, ne, nh, eh, re, g_ne, target, sw
+    /// (the layout [`Rows::par_fill`] hands out).
+    #[inline]
+    pub fn write(cols: &mut [&mut [f64]; 8], i: usize, r: &Row) {
+        let g = &r.g;
+        let v = [g.nl, g.ne, g.nh, g.eh, g.re, g.g_ne, r.target, r.sw];
+        for (c, x) in cols.iter_mut().zip(v) {
+            c[i] = x;
+        }
+    }
+
+    /// Append every row of `other`.
+    pub fn extend(&mut self, other: &Rows) {
+        if other.weighted && !self.weighted {
+            self.sw = vec![1.0; self.len()];
+            self.weighted = true;
+        }
+        self.nl.extend_from_slice(&other.nl);
+        self.ne.extend_from_slice(&other.ne);
+        self.nh.extend_from_slice(&other.nh);
+        self.eh.extend_from_slice(&other.eh);
+        self.re.extend_from_slice(&other.re);
+        self.g_ne.extend_from_slice(&other.g_ne);
+        self.target.extend_from_slice(&other.target);
+        if other.weighted {
+            self.sw.extend_from_slice(&other.sw);
+        } else if self.weighted {
+            self.sw.resize(self.len(), 1.0);
+        }
+    }
+}
+
+impl From<Vec<Row>> for Rows {
+    /// Columns of `rows`; weighted if any weight differs from 1.
+    fn from(rows: Vec<Row>) -> Self {
+        let weighted = rows.iter().any(|r| r.sw != 1.0);
+        let mut out = Rows::with_capacity(rows.len(), weighted);
+        for r in &rows {
+            out.push(r);
+        }
+        out
+    }
+}
+
 /// The BRDF least-squares problem over one or more channels (rows contiguous per channel).
 #[derive(Clone, Debug)]
 pub struct BrdfProblem {
     /// Model template (kind, distribution, fast power); its parameter values are ignored.
     pub template: Model,
     /// Rows, channel after channel (shared, so problems derived from this one are cheap).
-    pub rows: std::sync::Arc<Vec<Row>>,
+    pub rows: std::sync::Arc<Rows>,
     /// Start row of each channel (plus the total at the end).
     pub starts: Vec<usize>,
     /// Per channel, where each model parameter comes from.
@@ -205,12 +402,14 @@ impl BrdfProblem {
 
     /// A problem on every `stride`-th row of each channel (deterministic subsample).
     pub fn subsample(&self, max_rows_per_channel: usize) -> BrdfProblem {
-        let mut rows = Vec::new();
+        let mut rows = Rows::with_capacity(0, self.rows.weighted());
         let mut starts = vec![0];
         for c in 0..self.layout.len() {
-            let r = &self.rows[self.starts[c]..self.starts[c + 1]];
-            let stride = r.len().div_ceil(max_rows_per_channel).max(1);
-            rows.extend(r.iter().step_by(stride).copied());
+            let (lo, hi) = (self.starts[c], self.starts[c + 1]);
+            let stride = (hi - lo).div_ceil(max_rows_per_channel).max(1);
+            for i in (lo..hi).step_by(stride) {
+                rows.push(&self.rows.get(i));
+            }
             starts.push(rows.len());
         }
         BrdfProblem {
@@ -270,7 +469,7 @@ impl Problem for BrdfProblem {
 
     #[inline]
     fn residual_grad(&self, prep: &Prepared, i: usize, row: &mut [f64]) -> f64 {
-        let rw = &self.rows[i];
+        let rw = &self.rows.get(i);
         let (model, map) = &prep.chans[self.channel_of(i)];
         let mut grad = [0.0; 4];
         let f = model.brdf_grad(&rw.g, &mut grad);
@@ -294,7 +493,7 @@ impl Problem for BrdfProblem {
 
     #[inline]
     fn residual(&self, prep: &Prepared, i: usize) -> f64 {
-        let rw = &self.rows[i];
+        let rw = &self.rows.get(i);
         let f = prep.chans[self.channel_of(i)].0.brdf(&rw.g);
         let r = match self.loss {
             Loss::Log => (rw.cos_i * f).ln_1p() - rw.target,
@@ -327,10 +526,15 @@ impl Problem for BrdfProblem {
             let (model, map) = &prep.chans[c];
             let mut g = [[0.0f64; 4]; 4];
             let mut gr = [0.0f64; 4];
-            acc.cost += match self.loss {
-                Loss::Log => kernel::<true>(&self.rows[lo..hi], model, robust, &mut g, &mut gr),
-                Loss::Linear => kernel::<false>(&self.rows[lo..hi], model, robust, &mut g, &mut gr),
-            };
+            acc.cost += kernel(
+                &self.rows,
+                lo..hi,
+                self.loss,
+                model,
+                robust,
+                &mut g,
+                &mut gr,
+            );
             for j in 0..np {
                 let (kj, cj) = map[j];
                 if kj == usize::MAX {
@@ -358,7 +562,8 @@ impl Problem for BrdfProblem {
                 continue;
             }
             let model = &prep.chans[c].0;
-            for rw in &self.rows[lo..hi] {
+            for i in lo..hi {
+                let rw = self.rows.get(i);
                 let f = model.brdf(&rw.g);
                 let r = match self.loss {
                     Loss::Log => (rw.cos_i * f).ln_1p() - rw.target,
@@ -371,12 +576,35 @@ impl Problem for BrdfProblem {
     }
 }
 
-/// The hot loop: residuals of one channel's rows with the model's parameter gradient,
+/// The hot loop: residuals of one channel's rows `range` with the model's parameter gradient,
 /// accumulated into the model-space normal equations `g` (upper triangle) and `gr`; returns
-/// Σ ρ(r). Free of allocation; the loss is a compile-time constant.
-#[inline(never)]
-fn kernel<const LOG: bool>(
-    rows: &[Row],
+/// Σ ρ(r). Free of allocation. Blinn's Torrance–Sparrow model with D3 and the log loss (the
+/// default fit) has its own lane kernel ([`ts_d3_log`]); every other case goes row by row
+/// through [`Model::brdf_grad`].
+fn kernel(
+    rows: &Rows,
+    range: std::ops::Range<usize>,
+    loss: Loss,
+    model: &Model,
+    robust: Robust,
+    g: &mut [[f64; 4]; 4],
+    gr: &mut [f64; 4],
+) -> f64 {
+    if loss == Loss::Log
+        && robust == Robust::None
+        && model.kind == ModelKind::TorranceSparrow
+        && model.dist == Distribution::D3
+    {
+        return ts_d3_log(rows, range, model.p, g, gr);
+    }
+    kernel_rows(rows, range, loss, model, robust, g, gr)
+}
+
+/// [`kernel`] row by row through [`Model::brdf_grad`]: every model, loss and robust weight.
+fn kernel_rows(
+    rows: &Rows,
+    range: std::ops::Range<usize>,
+    loss: Loss,
     model: &Model,
     robust: Robust,
     g: &mut [[f64; 4]; 4],
@@ -384,13 +612,15 @@ fn kernel<const LOG: bool>(
 ) -> f64 {
     let mut cost = 0.0;
     let mut grad = [0.0; 4];
-    for rw in rows {
+    for i in range {
+        let rw = rows.get(i);
         let f = model.brdf_grad(&rw.g, &mut grad);
-        let (r, drdf) = if LOG {
-            let fm = rw.cos_i * f;
-            (fm.ln_1p() - rw.target, rw.cos_i / (1.0 + fm))
-        } else {
-            (f - rw.target, 1.0)
+        let (r, drdf) = match loss {
+            Loss::Log => {
+                let fm = rw.cos_i * f;
+                (fm.ln_1p() - rw.target, rw.cos_i / (1.0 + fm))
+            }
+            Loss::Linear => (f - rw.target, 1.0),
         };
         let r = rw.sw * r;
         let s = rw.sw * drdf;
@@ -409,6 +639,181 @@ fn kernel<const LOG: bool>(
         }
     }
     cost
+}
+
+/// Torrance–Sparrow with D3 and the log loss, [`LANES`] rows at a time: the same formulas
+/// as [`Model::brdf_grad`] (Blinn 1977: D3, exact Fresnel with its n-derivative, G/(N·E))
+/// written without branches so the compiler turns each lane loop into vector instructions,
+/// with [`lanes::ln_1p`] for the logarithm. Each lane keeps its own sums, added in lane order at
+/// the end, so the result does not depend on the instruction set; it is compiled for AVX-512
+/// and AVX2 as well and picked at run time (the `multiversion` crate).
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn ts_d3_log(
+    rows: &Rows,
+    range: std::ops::Range<usize>,
+    p: [f64; 4],
+    g: &mut [[f64; 4]; 4],
+    gr: &mut [f64; 4],
+) -> f64 {
+    ts_d3_log_body(rows, range, p, g, gr)
+}
+
+/// Sums of one lane kernel: Σ ½r², Jᵀr (4) and the upper triangle of JᵀJ (10).
+const SUMS: usize = 15;
+
+#[inline(always)]
+fn ts_d3_log_body(
+    rows: &Rows,
+    range: std::ops::Range<usize>,
+    p: [f64; 4],
+    g: &mut [[f64; 4]; 4],
+    gr: &mut [f64; 4],
+) -> f64 {
+    let (n, c, ps, pd) = (p[0], p[1], p[2], p[3]);
+    let k = TsD3::new(n, c, ps, pd);
+    let weighted = rows.weighted();
+    let mut acc = [[0.0f64; LANES]; SUMS];
+    let mut i = range.start;
+    while i + LANES <= range.end {
+        let mut out = [[0.0f64; LANES]; 4];
+        let nl: &[f64; LANES] = rows.nl[i..i + LANES].try_into().expect("lane block");
+        let nh: &[f64; LANES] = rows.nh[i..i + LANES].try_into().expect("lane block");
+        let eh: &[f64; LANES] = rows.eh[i..i + LANES].try_into().expect("lane block");
+        let gn: &[f64; LANES] = rows.g_ne[i..i + LANES].try_into().expect("lane block");
+        let tg: &[f64; LANES] = rows.target[i..i + LANES].try_into().expect("lane block");
+        let mut y = [0.0f64; LANES];
+        for l in 0..LANES {
+            let (fm, jf) = k.eval(nl[l], nh[l], eh[l], gn[l]);
+            y[l] = nl[l] * fm;
+            out[1][l] = jf[0];
+            out[2][l] = jf[1];
+            out[3][l] = jf[2];
+        }
+        let (ly, u) = lanes::ln_1p(&y);
+        for l in 0..LANES {
+            let sw = if weighted { rows.sw[i + l] } else { 1.0 };
+            let s = sw * nl[l] / u[l];
+            let r = sw * (ly[l] - tg[l]);
+            let j = [
+                s * out[1][l],
+                s * out[2][l],
+                s * out[3][l],
+                s * std::f64::consts::FRAC_1_PI,
+            ];
+            accumulate_lane(&mut acc, l, r, j);
+        }
+        i += LANES;
+    }
+    // The last rows one by one, with the same formulas.
+    for i in i..range.end {
+        let (nl, sw) = (rows.nl[i], if weighted { rows.sw[i] } else { 1.0 });
+        let (fm, jf) = k.eval(nl, rows.nh[i], rows.eh[i], rows.g_ne[i]);
+        let (ly, u) = lanes::ln_1p(&[nl * fm; LANES]);
+        let (ly, u) = (ly[0], u[0]);
+        let r = sw * (ly - rows.target[i]);
+        let s = sw * nl / u;
+        let j = [
+            s * jf[0],
+            s * jf[1],
+            s * jf[2],
+            s * std::f64::consts::FRAC_1_PI,
+        ];
+        accumulate_lane(&mut acc, 0, r, j);
+    }
+    let lane_sum = |k: usize| acc[k].iter().sum::<f64>();
+    let mut t = 5;
+    for a in 0..4 {
+        gr[a] += lane_sum(1 + a);
+        for b in a..4 {
+            g[a][b] += lane_sum(t);
+            t += 1;
+        }
+    }
+    lane_sum(0)
+}
+
+#[inline(always)]
+fn accumulate_lane(acc: &mut [[f64; LANES]; SUMS], l: usize, r: f64, j: [f64; 4]) {
+    acc[0][l] += 0.5 * r * r;
+    let mut t = 5;
+    for a in 0..4 {
+        acc[1 + a][l] += j[a] * r;
+        for b in a..4 {
+            acc[t][l] += j[a] * j[b];
+            t += 1;
+        }
+    }
+}
+
+/// Blinn's Torrance–Sparrow model with D3 at fixed parameters, for the lane kernel.
+#[derive(Clone, Copy)]
+struct TsD3 {
+    n: f64,
+    n2m1: f64,
+    c: f64,
+    s: f64,
+    ps: f64,
+    pd: f64,
+}
+
+impl TsD3 {
+    fn new(n: f64, c: f64, ps: f64, pd: f64) -> Self {
+        TsD3 {
+            n,
+            n2m1: n * n - 1.0,
+            c,
+            s: c * c,
+            ps,
+            pd,
+        }
+    }
+
+    /// f_r and its derivatives with respect to (n, c3, ps); the pd derivative is 1/π.
+    /// Branch-free forms of [`crate::model::fresnel_dn`] and D3 of
+    /// [`Distribution::eval_dc`] (where those return early, the selects below give the same).
+    #[inline(always)]
+    fn eval(&self, nl: f64, nh: f64, eh: f64, g_ne: f64) -> (f64, [f64; 3]) {
+        // D3 = (c²/(x(c²−1)+1))², x = (N·H)²; dD/dc = 4c³(1 − x)/den³.
+        let x = nh * nh;
+        let den = x * (self.s - 1.0) + 1.0;
+        let ok_d = den > 0.0;
+        let den = if ok_d { den } else { 1.0 };
+        let q = self.s / den;
+        let d = if ok_d { q * q } else { 0.0 };
+        let dd = if ok_d {
+            4.0 * self.c * self.s * (1.0 - x) / (den * den * den)
+        } else {
+            0.0
+        };
+        // Exact Fresnel, F = ½ (g−c)²/(g+c)² [1 + (c(g+c)−1)²/(c(g−c)+1)²].
+        let cc = eh.clamp(0.0, 1.0);
+        let g2 = (self.n2m1 + cc * cc).max(0.0);
+        let gg = g2.sqrt();
+        let gp = gg + cc;
+        let ok_f = gp > 0.0;
+        let gp = if ok_f { gp } else { 1.0 };
+        let gm = gg - cc;
+        let igp = 1.0 / gp;
+        let qf = gm * igp;
+        let a = qf * qf;
+        let uu = cc * gp - 1.0;
+        let vv = cc * gm + 1.0;
+        let iv = 1.0 / vv;
+        let t = uu * iv;
+        let b = t * t;
+        let f = if ok_f { 0.5 * a * (1.0 + b) } else { 1.0 };
+        let da = 4.0 * cc * qf * igp * igp;
+        let db = 4.0 * cc * (1.0 - cc * cc) * t * iv * iv;
+        let ginv = if gg > 0.0 { self.n / gg } else { 0.0 };
+        let df = if ok_f {
+            0.5 * (da * (1.0 + b) + a * db) * ginv
+        } else {
+            0.0
+        };
+        let w = g_ne * std::f64::consts::FRAC_1_PI / nl;
+        let f_r = self.pd * std::f64::consts::FRAC_1_PI + self.ps * d * f * w;
+        (f_r, [self.ps * d * df * w, self.ps * dd * f * w, d * f * w])
+    }
 }
 
 /// Grid of candidate values for a nonlinear parameter in the global initialisation.
@@ -448,4 +853,76 @@ pub fn linear_index(kind: ModelKind, name: &str) -> Option<usize> {
     kind.param_names(Distribution::D3)
         .iter()
         .position(|n| *n == name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// The lane kernel of Torrance–Sparrow D3 with the log loss gives the same cost and normal
+    /// equations as the row-by-row path through `Model::brdf_grad` (an independent code path:
+    /// library `ln_1p`, the model's own Fresnel and D3), weighted or not, for any row count.
+    #[test]
+    fn lane_kernel_matches_row_kernel() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        for (case, weighted) in [(0, false), (1, true), (2, false), (3, true)] {
+            let m = [1, 7, 8, 1003][case];
+            let mut rows = Rows::with_capacity(m, weighted);
+            for _ in 0..m {
+                let a: [f64; 4] = [
+                    rng.random_range(0.0..1.5),
+                    rng.random_range(0.0..6.3),
+                    rng.random_range(0.0..1.5),
+                    rng.random_range(0.0..6.3),
+                ];
+                let g = Geometry::from_angles(a[0], a[1], a[2], a[3]);
+                let f: f64 = rng.random_range(0.0..3.0);
+                rows.push(&Row {
+                    g,
+                    cos_i: g.nl,
+                    target: (g.nl * f).ln_1p(),
+                    sw: if weighted {
+                        rng.random_range(0.1..2.0)
+                    } else {
+                        1.0
+                    },
+                });
+            }
+            for _ in 0..20 {
+                let p = [
+                    rng.random_range(1.01..300.0),
+                    rng.random_range(0.01..1.0),
+                    rng.random_range(0.0..2.0),
+                    rng.random_range(0.0..2.0),
+                ];
+                let model = Model::new(ModelKind::TorranceSparrow, Distribution::D3, &p).unwrap();
+                let (mut g1, mut r1) = ([[0.0; 4]; 4], [0.0; 4]);
+                let (mut g2, mut r2) = ([[0.0; 4]; 4], [0.0; 4]);
+                let c1 = ts_d3_log(&rows, 0..m, p, &mut g1, &mut r1);
+                let c2 = kernel_rows(
+                    &rows,
+                    0..m,
+                    Loss::Log,
+                    &model,
+                    Robust::None,
+                    &mut g2,
+                    &mut r2,
+                );
+                let close = |a: f64, b: f64| (a - b).abs() <= 1e-11 * (a.abs() + b.abs()) + 1e-300;
+                assert!(close(c1, c2), "cost {c1} vs {c2} ({p:?})");
+                for a in 0..4 {
+                    assert!(close(r1[a], r2[a]), "Jᵀr[{a}] {} vs {}", r1[a], r2[a]);
+                    for b in a..4 {
+                        assert!(
+                            close(g1[a][b], g2[a][b]),
+                            "JᵀJ[{a}][{b}] {} vs {}",
+                            g1[a][b],
+                            g2[a][b]
+                        );
+                    }
+                }
+            }
+        }
+    }
 }
