@@ -376,9 +376,10 @@ fn fill_rows(
             Loss::Linear => v,
         };
         // L·E = sinθi sinθo cos(φo − φi) + cosθi cosθo.
-        let geo: [Geometry; LANES] = std::array::from_fn(|l| {
-            Geometry::from_cosines(ci[l], co[l], si[l] * so[l] * cp[l] + ci[l] * co[l])
-        });
+        let mut geo = [Geometry::from_cosines(1.0, 1.0, 1.0); LANES];
+        for l in 0..LANES {
+            geo[l] = Geometry::from_cosines(ci[l], co[l], si[l] * so[l] * cp[l] + ci[l] * co[l]);
+        }
         for l in 0..n {
             if !v[l].is_finite() || max.is_some_and(|m| ti[l] > m || to[l] > m) {
                 continue;
@@ -884,13 +885,12 @@ fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> V
                     _ => None,
                 };
                 let (mut a11, mut a12, mut a22, mut b1, mut b2) = (0.0, 0.0, 0.0, 0.0, 0.0);
-                for i in rows {
+                let basis = match ips {
+                    Some(_) => problem::brdf_values(&spec_model, &p.rows, rows.clone()),
+                    None => vec![0.0; rows.len()],
+                };
+                for (i, s) in rows.zip(basis) {
                     let (fd, w) = data[i];
-                    let s = if ips.is_some() {
-                        spec_model.brdf(&p.rows.get(i).g)
-                    } else {
-                        0.0
-                    };
                     let d = std::f64::consts::FRAC_1_PI;
                     let mut y = fd;
                     if let Some(v) = fixed_ps {

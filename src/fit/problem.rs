@@ -562,6 +562,10 @@ impl Problem for BrdfProblem {
                 continue;
             }
             let model = &prep.chans[c].0;
+            if ts_d3_log_applies(self.loss, model, robust) {
+                s += ts_d3_log_cost(&self.rows, lo..hi, model.p);
+                continue;
+            }
             for i in lo..hi {
                 let rw = self.rows.get(i);
                 let f = model.brdf(&rw.g);
@@ -590,14 +594,36 @@ fn kernel(
     g: &mut [[f64; 4]; 4],
     gr: &mut [f64; 4],
 ) -> f64 {
-    if loss == Loss::Log
-        && robust == Robust::None
-        && model.kind == ModelKind::TorranceSparrow
-        && model.dist == Distribution::D3
-    {
+    if ts_d3_log_applies(loss, model, robust) {
         return ts_d3_log(rows, range, model.p, g, gr);
     }
     kernel_rows(rows, range, loss, model, robust, g, gr)
+}
+
+/// f_r of `model` at rows `range` (the lane form of [`TsD3`] for Torrance–Sparrow with D3).
+pub fn brdf_values(model: &Model, rows: &Rows, range: std::ops::Range<usize>) -> Vec<f64> {
+    if model.kind == ModelKind::TorranceSparrow && model.dist == Distribution::D3 {
+        ts_d3_values(model.p, rows, range)
+    } else {
+        range.map(|i| model.brdf(&rows.get(i).g)).collect()
+    }
+}
+
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn ts_d3_values(p: [f64; 4], rows: &Rows, range: std::ops::Range<usize>) -> Vec<f64> {
+    let k = TsD3::new(p);
+    let pd_pi = p[3] * std::f64::consts::FRAC_1_PI;
+    range
+        .map(|i| pd_pi + k.ps * k.eval(rows.nh[i], rows.eh[i], rows.g_ne[i]).0 / rows.nl[i])
+        .collect()
+}
+
+/// True where the lane kernel [`ts_d3_log`] computes what [`kernel_rows`] would.
+fn ts_d3_log_applies(loss: Loss, model: &Model, robust: Robust) -> bool {
+    loss == Loss::Log
+        && robust == Robust::None
+        && model.kind == ModelKind::TorranceSparrow
+        && model.dist == Distribution::D3
 }
 
 /// [`kernel`] row by row through [`Model::brdf_grad`]: every model, loss and robust weight.
@@ -655,70 +681,77 @@ fn ts_d3_log(
     g: &mut [[f64; 4]; 4],
     gr: &mut [f64; 4],
 ) -> f64 {
-    ts_d3_log_body(rows, range, p, g, gr)
+    ts_d3_log_body::<true>(rows, range, p, g, gr)
+}
+
+/// Σ ½r² of [`ts_d3_log`] alone (no Jacobian), for cost-only evaluations.
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn ts_d3_log_cost(rows: &Rows, range: std::ops::Range<usize>, p: [f64; 4]) -> f64 {
+    ts_d3_log_body::<false>(rows, range, p, &mut [[0.0; 4]; 4], &mut [0.0; 4])
 }
 
 /// Sums of one lane kernel: Σ ½r², Jᵀr (4) and the upper triangle of JᵀJ (10).
 const SUMS: usize = 15;
 
 #[inline(always)]
-fn ts_d3_log_body(
+fn ts_d3_log_body<const JAC: bool>(
     rows: &Rows,
     range: std::ops::Range<usize>,
     p: [f64; 4],
     g: &mut [[f64; 4]; 4],
     gr: &mut [f64; 4],
 ) -> f64 {
-    let (n, c, ps, pd) = (p[0], p[1], p[2], p[3]);
-    let k = TsD3::new(n, c, ps, pd);
-    let weighted = rows.weighted();
+    let k = TsD3::new(p);
+    let pd_pi = p[3] * std::f64::consts::FRAC_1_PI;
     let mut acc = [[0.0f64; LANES]; SUMS];
+    let ones = [1.0f64; LANES];
+    let lane = |v: &[f64], i: usize| -> [f64; LANES] { v[i..i + LANES].try_into().expect("block") };
     let mut i = range.start;
     while i + LANES <= range.end {
-        let mut out = [[0.0f64; LANES]; 4];
-        let nl: &[f64; LANES] = rows.nl[i..i + LANES].try_into().expect("lane block");
-        let nh: &[f64; LANES] = rows.nh[i..i + LANES].try_into().expect("lane block");
-        let eh: &[f64; LANES] = rows.eh[i..i + LANES].try_into().expect("lane block");
-        let gn: &[f64; LANES] = rows.g_ne[i..i + LANES].try_into().expect("lane block");
-        let tg: &[f64; LANES] = rows.target[i..i + LANES].try_into().expect("lane block");
-        let mut y = [0.0f64; LANES];
-        for l in 0..LANES {
-            let (fm, jf) = k.eval(nl[l], nh[l], eh[l], gn[l]);
-            y[l] = nl[l] * fm;
-            out[1][l] = jf[0];
-            out[2][l] = jf[1];
-            out[3][l] = jf[2];
-        }
-        let (ly, u) = lanes::ln_1p(&y);
-        for l in 0..LANES {
-            let sw = if weighted { rows.sw[i + l] } else { 1.0 };
-            let s = sw * nl[l] / u[l];
-            let r = sw * (ly[l] - tg[l]);
-            let j = [
-                s * out[1][l],
-                s * out[2][l],
-                s * out[3][l],
-                s * std::f64::consts::FRAC_1_PI,
-            ];
-            accumulate_lane(&mut acc, l, r, j);
-        }
+        let sw = if rows.weighted {
+            lane(&rows.sw, i)
+        } else {
+            ones
+        };
+        ts_d3_block::<JAC>(
+            &k,
+            pd_pi,
+            [
+                &lane(&rows.nl, i),
+                &lane(&rows.nh, i),
+                &lane(&rows.eh, i),
+                &lane(&rows.g_ne, i),
+                &lane(&rows.target, i),
+                &sw,
+            ],
+            &mut acc,
+        );
         i += LANES;
     }
-    // The last rows one by one, with the same formulas.
-    for i in i..range.end {
-        let (nl, sw) = (rows.nl[i], if weighted { rows.sw[i] } else { 1.0 });
-        let (fm, jf) = k.eval(nl, rows.nh[i], rows.eh[i], rows.g_ne[i]);
-        let (ly, u) = lanes::ln_1p(&[nl * fm; LANES]);
-        let (ly, u) = (ly[0], u[0]);
-        let r = sw * (ly - rows.target[i]);
-        let s = sw * nl / u;
-        let j = [
-            s * jf[0],
-            s * jf[1],
-            s * jf[2],
-            s * std::f64::consts::FRAC_1_PI,
-        ];
-        accumulate_lane(&mut acc, 0, r, j);
+    if i < range.end {
+        // The tail: lanes past the end repeat the last row with weight 0.
+        let len = range.end - i;
+        let pad = |v: &[f64], w: bool| -> [f64; LANES] {
+            std::array::from_fn(|l| match (l < len, w) {
+                (true, true) if !rows.weighted => 1.0,
+                (true, _) => v[i + l],
+                (false, true) => 0.0,
+                (false, false) => v[i + len - 1],
+            })
+        };
+        ts_d3_block::<JAC>(
+            &k,
+            pd_pi,
+            [
+                &pad(&rows.nl, false),
+                &pad(&rows.nh, false),
+                &pad(&rows.eh, false),
+                &pad(&rows.g_ne, false),
+                &pad(&rows.target, false),
+                &pad(&rows.sw, true),
+            ],
+            &mut acc,
+        );
     }
     let lane_sum = |k: usize| acc[k].iter().sum::<f64>();
     let mut t = 5;
@@ -730,6 +763,44 @@ fn ts_d3_log_body(
         }
     }
     lane_sum(0)
+}
+
+/// One block of [`LANES`] rows of [`ts_d3_log`]: columns nl, nh, eh, g_ne, target, √weight.
+#[inline(always)]
+fn ts_d3_block<const JAC: bool>(
+    k: &TsD3,
+    pd_pi: f64,
+    c: [&[f64; LANES]; 6],
+    acc: &mut [[f64; LANES]; SUMS],
+) {
+    let [nl, nh, eh, gn, tg, sw] = c;
+    let mut y = [0.0f64; LANES];
+    let mut dy = [[0.0f64; LANES]; 3];
+    for l in 0..LANES {
+        // y = cosθi f_r = cosθi pd/π + ps a, a = D F G/(π N·E) (no division by cosθi).
+        let (a, da) = k.eval(nh[l], eh[l], gn[l]);
+        y[l] = nl[l] * pd_pi + k.ps * a;
+        dy[0][l] = k.ps * da[0];
+        dy[1][l] = k.ps * da[1];
+        dy[2][l] = a;
+    }
+    let (ly, u) = lanes::ln_1p(&y);
+    for l in 0..LANES {
+        // r = ln(1 + y) − target, dr/dθ = (dy/dθ)/(1 + y).
+        let r = sw[l] * (ly[l] - tg[l]);
+        if JAC {
+            let s = sw[l] / u[l];
+            let j = [
+                s * dy[0][l],
+                s * dy[1][l],
+                s * dy[2][l],
+                s * nl[l] * std::f64::consts::FRAC_1_PI,
+            ];
+            accumulate_lane(acc, l, r, j);
+        } else {
+            acc[0][l] += 0.5 * r * r;
+        }
+    }
 }
 
 #[inline(always)]
@@ -745,7 +816,7 @@ fn accumulate_lane(acc: &mut [[f64; LANES]; SUMS], l: usize, r: f64, j: [f64; 4]
     }
 }
 
-/// Blinn's Torrance–Sparrow model with D3 at fixed parameters, for the lane kernel.
+/// Blinn's Torrance–Sparrow model with D3 at fixed parameters, for the lane kernels.
 #[derive(Clone, Copy)]
 struct TsD3 {
     n: f64,
@@ -753,66 +824,66 @@ struct TsD3 {
     c: f64,
     s: f64,
     ps: f64,
-    pd: f64,
 }
 
 impl TsD3 {
-    fn new(n: f64, c: f64, ps: f64, pd: f64) -> Self {
+    fn new(p: [f64; 4]) -> Self {
+        let (n, c) = (p[0], p[1]);
         TsD3 {
             n,
             n2m1: n * n - 1.0,
             c,
             s: c * c,
-            ps,
-            pd,
+            ps: p[2],
         }
     }
 
-    /// f_r and its derivatives with respect to (n, c3, ps); the pd derivative is 1/π.
-    /// Branch-free forms of [`crate::model::fresnel_dn`] and D3 of
-    /// [`Distribution::eval_dc`] (where those return early, the selects below give the same).
+    /// a = D3 F G/(π N·E), the specular term per unit ps times cosθi (so f_r = pd/π + ps a/N·L),
+    /// and its derivatives with respect to n and c3. The formulas of [`crate::model::fresnel_dn`]
+    /// and D3 in [`Distribution::eval_dc`], without branches (where those return early, the
+    /// selects below give the same) and with the divisions shared.
     #[inline(always)]
-    fn eval(&self, nl: f64, nh: f64, eh: f64, g_ne: f64) -> (f64, [f64; 3]) {
-        // D3 = (c²/(x(c²−1)+1))², x = (N·H)²; dD/dc = 4c³(1 − x)/den³.
+    fn eval(&self, nh: f64, eh: f64, g_ne: f64) -> (f64, [f64; 2]) {
+        // D3 = (c²/den)², den = x(c²−1) + 1, x = (N·H)²; dD/dc = 4c³(1 − x)/den³.
         let x = nh * nh;
         let den = x * (self.s - 1.0) + 1.0;
         let ok_d = den > 0.0;
-        let den = if ok_d { den } else { 1.0 };
-        let q = self.s / den;
+        let id = 1.0 / if ok_d { den } else { 1.0 };
+        let q = self.s * id;
         let d = if ok_d { q * q } else { 0.0 };
         let dd = if ok_d {
-            4.0 * self.c * self.s * (1.0 - x) / (den * den * den)
+            4.0 * self.c * self.s * (1.0 - x) * id * id * id
         } else {
             0.0
         };
-        // Exact Fresnel, F = ½ (g−c)²/(g+c)² [1 + (c(g+c)−1)²/(c(g−c)+1)²].
+        // Exact Fresnel, F = ½ (g−c)²/(g+c)² [1 + (c(g+c)−1)²/(c(g−c)+1)²], g = √(n² + c² − 1).
         let cc = eh.clamp(0.0, 1.0);
-        let g2 = (self.n2m1 + cc * cc).max(0.0);
-        let gg = g2.sqrt();
+        let gg = (self.n2m1 + cc * cc).max(0.0).sqrt();
         let gp = gg + cc;
         let ok_f = gp > 0.0;
         let gp = if ok_f { gp } else { 1.0 };
         let gm = gg - cc;
-        let igp = 1.0 / gp;
+        let vv = cc * gm + 1.0;
+        // 1/(g+c) and 1/(c(g−c)+1) from one division.
+        let inv = 1.0 / (gp * vv);
+        let igp = vv * inv;
+        let iv = gp * inv;
         let qf = gm * igp;
         let a = qf * qf;
-        let uu = cc * gp - 1.0;
-        let vv = cc * gm + 1.0;
-        let iv = 1.0 / vv;
-        let t = uu * iv;
+        let t = (cc * gp - 1.0) * iv;
         let b = t * t;
         let f = if ok_f { 0.5 * a * (1.0 + b) } else { 1.0 };
+        // dA/dg = 4c(g−c)/(g+c)³, dB/dg = 4c(1−c²)u/v³, dg/dn = n/g.
         let da = 4.0 * cc * qf * igp * igp;
         let db = 4.0 * cc * (1.0 - cc * cc) * t * iv * iv;
-        let ginv = if gg > 0.0 { self.n / gg } else { 0.0 };
+        let dn_dg = if gg > 0.0 { self.n / gg } else { 0.0 };
         let df = if ok_f {
-            0.5 * (da * (1.0 + b) + a * db) * ginv
+            0.5 * (da * (1.0 + b) + a * db) * dn_dg
         } else {
             0.0
         };
-        let w = g_ne * std::f64::consts::FRAC_1_PI / nl;
-        let f_r = self.pd * std::f64::consts::FRAC_1_PI + self.ps * d * f * w;
-        (f_r, [self.ps * d * df * w, self.ps * dd * f * w, d * f * w])
+        let w = g_ne * std::f64::consts::FRAC_1_PI;
+        (d * f * w, [d * df * w, dd * f * w])
     }
 }
 
@@ -900,6 +971,7 @@ mod tests {
                 let (mut g1, mut r1) = ([[0.0; 4]; 4], [0.0; 4]);
                 let (mut g2, mut r2) = ([[0.0; 4]; 4], [0.0; 4]);
                 let c1 = ts_d3_log(&rows, 0..m, p, &mut g1, &mut r1);
+                assert_eq!(c1, ts_d3_log_cost(&rows, 0..m, p));
                 let c2 = kernel_rows(
                     &rows,
                     0..m,
