@@ -63,7 +63,7 @@ pub fn ln(x: &[f64; LANES]) -> [f64; LANES] {
 }
 
 /// ln(1 + y) of each lane, for y ≥ 0 (the log loss): ln u with u = 1 + y, plus fdlibm
-/// `log1p`'s correction (y − (u − 1))/u for the rounding of u. Returns (ln(1 + y), u).
+/// `log1p`'s correction (y − (u − 1))/u for the rounding of u. Returns (ln(1 + y), 1/(1 + y)).
 #[inline(always)]
 pub fn ln_1p(y: &[f64; LANES]) -> ([f64; LANES], [f64; LANES]) {
     let mut u = [0.0f64; LANES];
@@ -71,10 +71,12 @@ pub fn ln_1p(y: &[f64; LANES]) -> ([f64; LANES], [f64; LANES]) {
         u[l] = 1.0 + y[l];
     }
     let mut out = ln(&u);
+    let mut iu = [0.0f64; LANES];
     for l in 0..LANES {
-        out[l] += (y[l] - (u[l] - 1.0)) / u[l];
+        iu[l] = 1.0 / u[l];
+        out[l] += (y[l] - (u[l] - 1.0)) * iu[l];
     }
-    (out, u)
+    (out, iu)
 }
 
 /// (sin x, cos x) of each lane: x = jπ/2 + r with a Cody–Waite reduction in three parts, then

@@ -74,6 +74,12 @@ pub trait Problem: Sync {
     fn bounds(&self) -> Vec<(f64, f64)> {
         vec![(f64::NEG_INFINITY, f64::INFINITY); self.dim()]
     }
+    /// A step each parameter may always take in one Levenberg–Marquardt iteration, whatever
+    /// its magnitude (like `x_scale` in scipy's `least_squares`); defaults to 0, a purely
+    /// relative bound.
+    fn step_scale(&self) -> Vec<f64> {
+        vec![0.0; self.dim()]
+    }
 }
 
 /// Robust loss ρ applied to each residual (the cost is Σ ρ(r)/…, see [`Robust::rho`]).
@@ -362,6 +368,7 @@ pub fn levenberg_marquardt<P: Problem>(
         return failed(x, "the start point gives a non-finite cost", evals);
     };
     let mut d = scale_diag(&ne, dim);
+    let scale = p.step_scale();
     let mut mu = 1e-3;
     let mut nu = 2.0;
     let mut iter = 0;
@@ -393,14 +400,12 @@ pub fn levenberg_marquardt<P: Problem>(
             continue;
         };
         // Relative step bound: no parameter moves by more than its own magnitude in one step
-        // (floored at 1e-3 of the largest). This stops "parameter evaporation", where a long
+        // (floored at 1e-3 of the largest and at the problem's step scale). This stops "parameter evaporation", where a long
         // first step lands on a plateau (an exponential saturated, F ≈ 1) that is a false
         // minimum at infinity; the damping grows until the step fits, without evaluations.
         let xmax = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-        let too_long = h
-            .iter()
-            .zip(&x)
-            .any(|(hi, xi)| hi.abs() > xi.abs().max(1e-3 * xmax).max(1e-6));
+        let too_long =
+            (0..dim).any(|i| h[i].abs() > x[i].abs().max(1e-3 * xmax).max(scale[i]).max(1e-6));
         if too_long && mu < 1e20 {
             mu *= 2.0;
             continue;

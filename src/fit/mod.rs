@@ -587,6 +587,15 @@ fn fit_group(
     if !opts.start.is_empty() || candidates.is_empty() {
         candidates.push(start_vector(&full, &var_names, &opts.start));
     }
+    // On a subsample only the basin matters: the polish on every row sets the final accuracy.
+    let refine_limits = if sub.is_some() {
+        Limits {
+            ftol: opts.limits.ftol.max(1e-8),
+            ..opts.limits
+        }
+    } else {
+        opts.limits
+    };
     let mut iterations = 0;
     let mut evaluations = 0;
     let mut best: Option<Solution> = None;
@@ -594,7 +603,7 @@ fn fit_group(
         use rayon::prelude::*;
         candidates
             .par_iter()
-            .map(|x0| lsq::solve(work, x0, opts.method, Robust::None, &opts.limits))
+            .map(|x0| lsq::solve(work, x0, opts.method, Robust::None, &refine_limits))
             .collect()
     };
     for s in sols {

@@ -506,6 +506,18 @@ impl Problem for BrdfProblem {
         self.transforms.iter().map(|t| t.bounds()).collect()
     }
 
+    /// Logit and log variables may move by 1 per step (a factor e in the odds or the value),
+    /// whatever their size; near u = 0 (c3 = ½, say) a relative bound alone would crawl.
+    fn step_scale(&self) -> Vec<f64> {
+        self.transforms
+            .iter()
+            .map(|t| match t {
+                Transform::IndexViaF0 | Transform::Logistic | Transform::Exp => 1.0,
+                Transform::Identity | Transform::Square => 0.0,
+            })
+            .collect()
+    }
+
     fn accumulate(
         &self,
         prep: &Prepared,
@@ -784,12 +796,12 @@ fn ts_d3_block<const JAC: bool>(
         dy[1][l] = k.ps * da[1];
         dy[2][l] = a;
     }
-    let (ly, u) = lanes::ln_1p(&y);
+    let (ly, iu) = lanes::ln_1p(&y);
     for l in 0..LANES {
         // r = ln(1 + y) − target, dr/dθ = (dy/dθ)/(1 + y).
         let r = sw[l] * (ly[l] - tg[l]);
         if JAC {
-            let s = sw[l] / u[l];
+            let s = sw[l] * iu[l];
             let j = [
                 s * dy[0][l],
                 s * dy[1][l],
@@ -864,10 +876,12 @@ impl TsD3 {
         let gp = if ok_f { gp } else { 1.0 };
         let gm = gg - cc;
         let vv = cc * gm + 1.0;
-        // 1/(g+c) and 1/(c(g−c)+1) from one division.
-        let inv = 1.0 / (gp * vv);
-        let igp = vv * inv;
-        let iv = gp * inv;
+        // 1/(g+c), 1/(c(g−c)+1) and 1/g from one division (g = 0 only at n = 1, c = 0).
+        let ok_g = gg > 0.0;
+        let g1 = if ok_g { gg } else { 1.0 };
+        let inv = 1.0 / (gp * vv * g1);
+        let igp = vv * g1 * inv;
+        let iv = gp * g1 * inv;
         let qf = gm * igp;
         let a = qf * qf;
         let t = (cc * gp - 1.0) * iv;
@@ -876,7 +890,7 @@ impl TsD3 {
         // dA/dg = 4c(g−c)/(g+c)³, dB/dg = 4c(1−c²)u/v³, dg/dn = n/g.
         let da = 4.0 * cc * qf * igp * igp;
         let db = 4.0 * cc * (1.0 - cc * cc) * t * iv * iv;
-        let dn_dg = if gg > 0.0 { self.n / gg } else { 0.0 };
+        let dn_dg = if ok_g { self.n * gp * vv * inv } else { 0.0 };
         let df = if ok_f {
             0.5 * (da * (1.0 + b) + a * db) * dn_dg
         } else {
