@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Side by side: brdfit fit and the scipy peer (../shared/peers/scipy_fit.py) on the same CSV
-# files, same loss (log) and same start, in one run. Prints both fit times (median of 5, fit
-# only: geometry + solve, no file reading), both costs and the ratio.
+# files, same loss (log) and same start, in one run. Prints both fit times (median of 5 fits in
+# one process each, fit only: geometry + solve + statistics, no file reading), both costs and
+# the ratio.
 #
 #   PYTHON=/tmp/peers/bin/python benches/compare_scipy.sh [SIZES...]
 #
@@ -28,19 +29,18 @@ for n in $SIZES; do
   for mode in "default" "local-only"; do
     extra=""
     [ "$mode" = "local-only" ] && extra="--local-only"
-    for i in 1 2 3 4 5; do
-      $BIN fit "$csv" --start "$START" $extra --json "$TMP/fit-$i.json" --force > /dev/null
-    done
+    # Five fits in one process, median time: the way the peer times itself.
+    $BIN fit "$csv" --start "$START" $extra --repeat 5 --json "$TMP/fit.json" --force > /dev/null
     $PYTHON - "$TMP" "$n" "$mode" "$peer" <<'PY'
-import json, statistics, sys
+import json, sys
 tmp, n, mode, peer = sys.argv[1:5]
-fits = [json.load(open(f"{tmp}/fit-{i}.json")) for i in range(1, 6)]
-t = statistics.median(f["seconds"] for f in fits)
-cost = fits[0]["cost"]
+f = json.load(open(f"{tmp}/fit.json"))
+t, cost = f["seconds"], f["cost"]
 line = f"{n:<9} {'brdfit ' + mode:<24} {t:11.4f} {cost:14.8e}"
 if peer != "n/a":
     p = json.loads(peer)
-    line += f" {p['seconds'] / t:8.1f}x  (scipy cost {'higher' if p['cost'] > cost * (1 + 1e-9) else 'not lower' if p['cost'] >= cost * (1 - 1e-9) else 'LOWER'})"
+    rel = (cost - p["cost"]) / p["cost"]
+    line += f" {p['seconds'] / t:8.1f}x  (cost vs scipy {rel:+.1e} relative)"
 print(line)
 PY
   done

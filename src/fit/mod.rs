@@ -984,6 +984,10 @@ fn statistics(
     m: usize,
 ) -> (Vec<f64>, Vec<Vec<f64>>, Vec<bool>) {
     let p = theta.len();
+    if p == 0 {
+        // Every parameter held: nothing to estimate.
+        return (vec![], vec![], vec![]);
+    }
     // JᵀJ in natural parameters: from the solver's last pass by the chain rule
     // (J_θ = J_u / (dθ/du)) when every dθ/du is non-zero, else from one more pass.
     let chain: Vec<f64> = (0..p)
