@@ -1509,8 +1509,19 @@ fn run_render(
     } else {
         progress_bar(s.camera.height as u64, "rows")
     };
+    let t = std::time::Instant::now();
     let img = s.render(&|| bar.inc(1));
+    let seconds = t.elapsed().as_secs_f64();
     bar.finish_and_clear();
+    if !quiet {
+        eprintln!(
+            "rendered {}×{} in {seconds:.4} s: {:.2} primary rays per pixel, {} rays in all",
+            img.width,
+            img.height,
+            img.primary_per_pixel(),
+            img.total_rays()
+        );
+    }
     let base = match output.extension().and_then(|e| e.to_str()) {
         Some("png" | "exr") => output.with_extension(""),
         _ => output.to_path_buf(),
