@@ -24,6 +24,7 @@ pub mod scene;
 use crate::model::{Distribution, Geometry, Model, ModelKind};
 use glam::DVec3;
 use rayon::prelude::*;
+use std::cell::Cell;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// A ray with unit direction.
@@ -253,11 +254,27 @@ impl Object {
         }
     }
 
-    /// Nearest hit along `r` before `tmax`: (t, outward normal, texture (u, v)).
-    pub fn intersect(&self, r: &Ray, tmax: f64) -> Option<(f64, DVec3, (f64, f64))> {
-        // Bounding-sphere test first (Whitted's bounding volumes).
+    /// Texture coordinates (u, v) at hit point `p` with outward normal `n`: longitude and
+    /// colatitude over [0, 1] on a sphere, distances along the plane's axes on a plane.
+    pub fn uv(&self, p: DVec3, n: DVec3) -> (f64, f64) {
+        match &self.shape {
+            Shape::Sphere { .. } => (
+                0.5 + n.z.atan2(n.x) / std::f64::consts::TAU,
+                n.y.clamp(-1.0, 1.0).acos() / std::f64::consts::PI,
+            ),
+            Shape::Plane { point, u, v, .. } => {
+                let q = p - *point;
+                (q.dot(*u), q.dot(*v))
+            }
+            Shape::Mesh(_) => (0.0, 0.0),
+        }
+    }
+
+    /// Nearest hit along `r` before `tmax`: (t, outward normal).
+    pub fn intersect(&self, r: &Ray, tmax: f64) -> Option<(f64, DVec3)> {
+        // Bounding-sphere test first (Whitted's bounding volumes); a sphere is its own bound.
         let (c, rad) = self.bound;
-        if rad.is_finite() {
+        if rad.is_finite() && !matches!(self.shape, Shape::Sphere { .. }) {
             let oc = r.o - c;
             let b = oc.dot(r.d);
             let disc = b * b - (oc.length_squared() - rad * rad);
@@ -279,12 +296,7 @@ impl Object {
                 if t <= eps || t >= tmax {
                     return None;
                 }
-                let n = (r.o + t * r.d - *center) / *radius;
-                let uv = (
-                    0.5 + n.z.atan2(n.x) / std::f64::consts::TAU,
-                    n.y.clamp(-1.0, 1.0).acos() / std::f64::consts::PI,
-                );
-                Some((t, n, uv))
+                Some((t, (r.o + t * r.d - *center) / *radius))
             }
             Shape::Plane {
                 point,
@@ -308,9 +320,9 @@ impl Object {
                 {
                     return None;
                 }
-                Some((t, *normal, (a, b)))
+                Some((t, *normal))
             }
-            Shape::Mesh(m) => m.intersect(r, tmax).map(|(t, n)| (t, n, (0.0, 0.0))),
+            Shape::Mesh(m) => m.intersect(r, tmax),
         }
     }
 }
@@ -438,16 +450,40 @@ pub struct Camera {
 impl Camera {
     /// The primary ray through continuous image position (x, y) ∈ [0, W] × [0, H].
     pub fn ray(&self, x: f64, y: f64) -> Ray {
+        self.frame().ray(x, y)
+    }
+
+    /// The camera's basis and image-plane scale, computed once for many rays.
+    pub fn frame(&self) -> CameraFrame {
         let f = (self.target - self.eye).normalize();
         let r = f.cross(self.up).normalize();
-        let u = r.cross(f);
         let tx = (0.5 * self.fov_deg.to_radians()).tan();
-        let ty = tx * self.height as f64 / self.width as f64;
-        let sx = (2.0 * x / self.width as f64 - 1.0) * tx;
-        let sy = (1.0 - 2.0 * y / self.height as f64) * ty;
+        CameraFrame {
+            eye: self.eye,
+            // One pixel step along x and y, and the image corner, in world directions.
+            dx: r * (2.0 * tx / self.width as f64),
+            dy: r.cross(f) * (-2.0 * tx / self.width as f64),
+            corner: f - r * tx + r.cross(f) * (tx * self.height as f64 / self.width as f64),
+        }
+    }
+}
+
+/// A camera's precomputed basis ([`Camera::frame`]).
+#[derive(Clone, Copy, Debug)]
+pub struct CameraFrame {
+    eye: DVec3,
+    dx: DVec3,
+    dy: DVec3,
+    corner: DVec3,
+}
+
+impl CameraFrame {
+    /// The primary ray through continuous image position (x, y) ∈ [0, W] × [0, H].
+    #[inline]
+    pub fn ray(&self, x: f64, y: f64) -> Ray {
         Ray {
             o: self.eye,
-            d: (f + sx * r + sy * u).normalize(),
+            d: (self.corner + x * self.dx + y * self.dy).normalize(),
         }
     }
 }
@@ -460,7 +496,8 @@ pub enum AntiAlias {
     /// n × n regular samples per pixel, averaged (box filter).
     Uniform(u32),
     /// Whitted's adaptive corner sampling: subdivide where corners differ by more than
-    /// `threshold` (in display units) or hit different objects, up to `max_level`.
+    /// `threshold` (in display units, √ of the linear value) or hit different objects, up to
+    /// `max_level`.
     Adaptive {
         /// Display-value difference that triggers subdivision.
         threshold: f64,
@@ -492,17 +529,36 @@ pub struct Scene {
     pub antialias: AntiAlias,
 }
 
-/// Ray counts of a render.
+/// Ray counts of one thread's work (plain cells: counting from several threads into shared
+/// atomics made every ray contend for one cache line); [`Counters::add_to`] merges them.
 #[derive(Debug, Default)]
 pub struct Counters {
     /// Primary rays.
-    pub primary: AtomicU64,
+    pub primary: Cell<u64>,
     /// Shadow rays.
-    pub shadow: AtomicU64,
+    pub shadow: Cell<u64>,
     /// Mirror rays.
-    pub reflected: AtomicU64,
+    pub reflected: Cell<u64>,
     /// Refracted rays.
-    pub refracted: AtomicU64,
+    pub refracted: Cell<u64>,
+}
+
+impl Counters {
+    fn bump(c: &Cell<u64>) {
+        c.set(c.get() + 1);
+    }
+
+    /// Add these counts to render-wide totals.
+    pub fn add_to(&self, total: &[AtomicU64; 4]) {
+        for (t, c) in total.iter().zip([
+            &self.primary,
+            &self.shadow,
+            &self.reflected,
+            &self.refracted,
+        ]) {
+            t.fetch_add(c.get(), Ordering::Relaxed);
+        }
+    }
 }
 
 /// A rendered image: linear RGB, row-major, and the ray counts.
@@ -556,18 +612,19 @@ pub fn refract(d: DVec3, n: DVec3, eta: f64) -> Option<DVec3> {
 #[derive(Clone, Copy, Debug)]
 struct Sample {
     color: DVec3,
+    display: DVec3,
     object: i64,
     near_miss: bool,
 }
 
 impl Scene {
     /// Nearest hit: (object index, t, outward normal, uv).
-    pub fn intersect(&self, r: &Ray, tmax: f64) -> Option<(usize, f64, DVec3, (f64, f64))> {
-        let mut best: Option<(usize, f64, DVec3, (f64, f64))> = None;
+    pub fn intersect(&self, r: &Ray, tmax: f64) -> Option<(usize, f64, DVec3)> {
+        let mut best: Option<(usize, f64, DVec3)> = None;
         for (i, o) in self.objects.iter().enumerate() {
             let limit = best.map_or(tmax, |b| b.1);
-            if let Some((t, n, uv)) = o.intersect(r, limit) {
-                best = Some((i, t, n, uv));
+            if let Some((t, n)) = o.intersect(r, limit) {
+                best = Some((i, t, n));
             }
         }
         best
@@ -579,12 +636,18 @@ impl Scene {
 
     /// Radiance along `r` (Whitted's eq. 2), recursing up to `max_depth`.
     pub fn trace(&self, r: &Ray, depth: u32, weight: f64, c: &Counters) -> DVec3 {
-        let Some((oi, t, n_out, uv)) = self.intersect(r, f64::INFINITY) else {
+        let Some((oi, t, n_out)) = self.intersect(r, f64::INFINITY) else {
             return self.background;
         };
         let obj = &self.objects[oi];
         let m = &self.materials[obj.material];
         let p = r.o + t * r.d;
+        // Texture coordinates only where a texture reads them.
+        let uv = if m.checker.is_some() || m.roughness.is_some() {
+            obj.uv(p, n_out)
+        } else {
+            (0.0, 0.0)
+        };
         let inside = n_out.dot(r.d) > 0.0;
         let n = if inside { -n_out } else { n_out };
         let e = -r.d;
@@ -611,7 +674,7 @@ impl Scene {
             if n.dot(ldir) <= 0.0 || n.dot(e) <= 0.0 {
                 continue;
             }
-            c.shadow.fetch_add(1, Ordering::Relaxed);
+            Counters::bump(&c.shadow);
             if self.occluded(
                 &Ray {
                     o: p + eps * n,
@@ -628,7 +691,7 @@ impl Scene {
         }
         if depth + 1 < self.max_depth {
             if m.ks > 0.0 && weight * m.ks >= self.min_weight {
-                c.reflected.fetch_add(1, Ordering::Relaxed);
+                Counters::bump(&c.reflected);
                 let d = reflect(r.d, n);
                 out += m.ks * self.trace(&Ray { o: p + eps * n, d }, depth + 1, weight * m.ks, c);
             }
@@ -636,13 +699,13 @@ impl Scene {
                 let eta = if inside { m.ior } else { 1.0 / m.ior };
                 match refract(r.d, n, eta) {
                     Some(d) => {
-                        c.refracted.fetch_add(1, Ordering::Relaxed);
+                        Counters::bump(&c.refracted);
                         out += m.kt
                             * self.trace(&Ray { o: p - eps * n, d }, depth + 1, weight * m.kt, c);
                     }
                     None => {
                         // Total internal reflection: the transmitted share is reflected.
-                        c.reflected.fetch_add(1, Ordering::Relaxed);
+                        Counters::bump(&c.reflected);
                         let d = reflect(r.d, n);
                         out += m.kt
                             * self.trace(&Ray { o: p + eps * n, d }, depth + 1, weight * m.kt, c);
@@ -653,9 +716,9 @@ impl Scene {
         out
     }
 
-    fn sample(&self, x: f64, y: f64, footprint: f64, c: &Counters) -> Sample {
-        c.primary.fetch_add(1, Ordering::Relaxed);
-        let r = self.camera.ray(x, y);
+    fn sample(&self, cam: &CameraFrame, x: f64, y: f64, footprint: f64, c: &Counters) -> Sample {
+        Counters::bump(&c.primary);
+        let r = cam.ray(x, y);
         let hit = self.intersect(&r, f64::INFINITY);
         // Whitted's small-object test: an object whose bounding sphere is smaller than the
         // sample footprint gets a minimum radius r_min = footprint·distance; a ray passing
@@ -670,8 +733,11 @@ impl Scene {
             let r_min = footprint * t;
             t > 0.0 && rad < r_min && (v - t * r.d).length() < r_min
         });
+        let color = self.trace(&r, 0, 1.0, c);
         Sample {
-            color: self.trace(&r, 0, 1.0, c),
+            color,
+            // Display-like value (gamma 2: the square root) for the anti-aliasing test.
+            display: color.clamp(DVec3::ZERO, DVec3::ONE).map(f64::sqrt),
             object: hit.map_or(-1, |h| h.0 as i64),
             near_miss,
         }
@@ -680,8 +746,9 @@ impl Scene {
     /// Render the image (rayon over rows); `progress` is called once per finished row.
     pub fn render(&self, progress: &(dyn Fn() + Sync)) -> Image {
         let (w, h) = (self.camera.width, self.camera.height);
-        let c = Counters::default();
+        let total: [AtomicU64; 4] = Default::default();
         let footprint = (0.5 * self.camera.fov_deg.to_radians()).tan() * 2.0 / w.max(1) as f64;
+        let cam = &self.camera.frame();
         let pixels: Vec<[f32; 3]> = match self.antialias {
             AntiAlias::None | AntiAlias::Uniform(_) => {
                 let n = match self.antialias {
@@ -691,6 +758,7 @@ impl Scene {
                 (0..h)
                     .into_par_iter()
                     .flat_map_iter(|y| {
+                        let c = Counters::default();
                         let row: Vec<[f32; 3]> = (0..w)
                             .map(|x| {
                                 let mut sum = DVec3::ZERO;
@@ -698,13 +766,14 @@ impl Scene {
                                     for i in 0..n {
                                         let sx = x as f64 + (i as f64 + 0.5) / n as f64;
                                         let sy = y as f64 + (j as f64 + 0.5) / n as f64;
-                                        sum += self.sample(sx, sy, footprint, &c).color;
+                                        sum += self.sample(cam, sx, sy, footprint, &c).color;
                                     }
                                 }
                                 let v = sum / (n * n) as f64;
                                 [v.x as f32, v.y as f32, v.z as f32]
                             })
                             .collect();
+                        c.add_to(&total);
                         progress();
                         row
                     })
@@ -718,15 +787,19 @@ impl Scene {
                 let corners: Vec<Sample> = (0..=h)
                     .into_par_iter()
                     .flat_map_iter(|y| {
-                        (0..=w)
-                            .map(|x| self.sample(x as f64, y as f64, footprint, &c))
-                            .collect::<Vec<_>>()
+                        let c = Counters::default();
+                        let row: Vec<Sample> = (0..=w)
+                            .map(|x| self.sample(cam, x as f64, y as f64, footprint, &c))
+                            .collect();
+                        c.add_to(&total);
+                        row
                     })
                     .collect();
                 let cw = (w + 1) as usize;
                 (0..h)
                     .into_par_iter()
                     .flat_map_iter(|y| {
+                        let c = Counters::default();
                         let row: Vec<[f32; 3]> = (0..w)
                             .map(|x| {
                                 let (xi, yi) = (x as usize, y as usize);
@@ -737,12 +810,13 @@ impl Scene {
                                     corners[(yi + 1) * cw + xi + 1],
                                 ];
                                 let v = self.adaptive(
-                                    x as f64, y as f64, 1.0, q, 0, threshold, max_level, footprint,
-                                    &c,
+                                    cam, x as f64, y as f64, 1.0, q, 0, threshold, max_level,
+                                    footprint, &c,
                                 );
                                 [v.x as f32, v.y as f32, v.z as f32]
                             })
                             .collect();
+                        c.add_to(&total);
                         progress();
                         row
                     })
@@ -753,12 +827,7 @@ impl Scene {
             width: w,
             height: h,
             pixels,
-            rays: [
-                c.primary.load(Ordering::Relaxed),
-                c.shadow.load(Ordering::Relaxed),
-                c.reflected.load(Ordering::Relaxed),
-                c.refracted.load(Ordering::Relaxed),
-            ],
+            rays: total.map(|t| t.into_inner()),
         }
     }
 
@@ -767,6 +836,7 @@ impl Scene {
     #[allow(clippy::too_many_arguments)]
     fn adaptive(
         &self,
+        cam: &CameraFrame,
         x: f64,
         y: f64,
         s: f64,
@@ -777,10 +847,9 @@ impl Scene {
         footprint: f64,
         c: &Counters,
     ) -> DVec3 {
-        let disp = |v: DVec3| v.clamp(DVec3::ZERO, DVec3::ONE).powf(1.0 / 2.2);
-        let d0 = disp(q[0].color);
+        let d0 = q[0].display;
         let differ = q.iter().any(|a| {
-            (disp(a.color) - d0).abs().max_element() > threshold
+            (a.display - d0).abs().max_element() > threshold
                 || a.object != q[0].object
                 || a.near_miss
         });
@@ -788,10 +857,21 @@ impl Scene {
             return (q[0].color + q[1].color + q[2].color + q[3].color) * 0.25;
         }
         let h = 0.5 * s;
-        let m = |dx: f64, dy: f64| self.sample(x + dx, y + dy, footprint * s, c);
+        let m = |dx: f64, dy: f64| self.sample(cam, x + dx, y + dy, footprint * s, c);
         let (top, left, mid, right, bottom) = (m(h, 0.0), m(0.0, h), m(h, h), m(s, h), m(h, s));
         let sub = |xx, yy, qq| {
-            self.adaptive(xx, yy, h, qq, level + 1, threshold, max_level, footprint, c)
+            self.adaptive(
+                cam,
+                xx,
+                yy,
+                h,
+                qq,
+                level + 1,
+                threshold,
+                max_level,
+                footprint,
+                c,
+            )
         };
         0.25 * (sub(x, y, [q[0], top, left, mid])
             + sub(x + h, y, [top, q[1], mid, right])

@@ -14,7 +14,7 @@
 //! height = 512
 //! [antialias]
 //! mode = "adaptive"         # adaptive | uniform | none
-//! threshold = 0.02          # adaptive: display-value difference that subdivides
+//! threshold = 0.02          # adaptive: difference of √(linear value) that subdivides
 //! max_level = 3             # adaptive: at most 2^3 × 2^3 squares per pixel
 //! samples = 4               # uniform: 4 × 4 per pixel
 //! [[lights]]
