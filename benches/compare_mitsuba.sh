@@ -8,7 +8,8 @@
 # brdfit: image error (RMSE on linear values against its own 16×16-supersampled reference)
 # against time and rays per pixel, uniform and adaptive anti-aliasing (brdfit study render).
 # Mitsuba (pip install mitsuba; llvm_ad_rgb needs LLVM ≥ 19, see ../shared/peers/README.md):
-# ../shared/peers/mitsuba/blinn_whitted.py at 16 and 64 spp, 2 threads.
+# benches/mitsuba_equal_error.py, the same scene in both programs, both timed at equal error
+# against one shared high-spp reference, 2 threads, front and edge light.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PYTHON=${PYTHON:-python3}
@@ -19,11 +20,10 @@ trap 'rm -rf "$OUT"' EXIT
 echo "== brdfit (2 threads), data/scenes/mitsuba-front.toml, 512×512"
 target/release/brdfit study render --scene data/scenes/mitsuba-front.toml -o "$OUT"
 if $PYTHON -c "import mitsuba" 2>/dev/null && [ -f "$PEERS/blinn_whitted.py" ]; then
-  echo "== Mitsuba 3 (llvm_ad_rgb, Blinn/Whitted plugins, 2 threads)"
-  for spp in 16 64; do
-    (cd "$PEERS" && THREADS=2 $PYTHON blinn_whitted.py llvm_ad_rgb $spp 5 "$OUT/mitsuba-$spp.png" front ts 4) | tail -1
+  for light in front edge; do
+    echo "== equal error against one shared reference, $light light (benches/mitsuba_equal_error.py)"
+    PEERS="$PEERS" THREADS=2 $PYTHON benches/mitsuba_equal_error.py "$light" --ref-spp 1024 --runs 5
   done
-  echo "Compare the median times above at equal RMSE (Mitsuba's error_vs_ref.py gives its RMSE)."
 else
   echo "== Mitsuba 3 is not installed for $PYTHON: only brdfit was measured."
 fi

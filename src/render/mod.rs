@@ -270,6 +270,14 @@ impl Object {
         }
     }
 
+    /// True if `r` hits the object before `tmax` (a shadow ray's test: no normal needed).
+    pub fn blocks(&self, r: &Ray, tmax: f64) -> bool {
+        match &self.shape {
+            Shape::Sphere { center, radius } => sphere_hit(r, *center, *radius, tmax).is_some(),
+            _ => self.intersect(r, tmax).is_some(),
+        }
+    }
+
     /// Nearest hit along `r` before `tmax`: (t, outward normal).
     pub fn intersect(&self, r: &Ray, tmax: f64) -> Option<(f64, DVec3)> {
         // Bounding-sphere test first (Whitted's bounding volumes); a sphere is its own bound.
@@ -283,21 +291,8 @@ impl Object {
             }
         }
         match &self.shape {
-            Shape::Sphere { center, radius } => {
-                let oc = r.o - *center;
-                let b = oc.dot(r.d);
-                let disc = b * b - (oc.length_squared() - radius * radius);
-                if disc < 0.0 {
-                    return None;
-                }
-                let s = disc.sqrt();
-                let eps = 1e-9 * radius.max(1.0);
-                let t = if -b - s > eps { -b - s } else { -b + s };
-                if t <= eps || t >= tmax {
-                    return None;
-                }
-                Some((t, (r.o + t * r.d - *center) / *radius))
-            }
+            Shape::Sphere { center, radius } => sphere_hit(r, *center, *radius, tmax)
+                .map(|t| (t, (r.o + t * r.d - *center) / *radius)),
             Shape::Plane {
                 point,
                 normal,
@@ -325,6 +320,21 @@ impl Object {
             Shape::Mesh(m) => m.intersect(r, tmax),
         }
     }
+}
+
+/// Nearest t in (ε, `tmax`) where unit-direction ray `r` meets the sphere, if any.
+#[inline]
+fn sphere_hit(r: &Ray, center: DVec3, radius: f64, tmax: f64) -> Option<f64> {
+    let oc = r.o - center;
+    let b = oc.dot(r.d);
+    let disc = b * b - (oc.length_squared() - radius * radius);
+    if disc < 0.0 {
+        return None;
+    }
+    let s = disc.sqrt();
+    let eps = 1e-9 * radius.max(1.0);
+    let t = if -b - s > eps { -b - s } else { -b + s };
+    (t > eps && t < tmax).then_some(t)
 }
 
 /// A light source.
@@ -631,7 +641,7 @@ impl Scene {
     }
 
     fn occluded(&self, r: &Ray, tmax: f64) -> bool {
-        self.objects.iter().any(|o| o.intersect(r, tmax).is_some())
+        self.objects.iter().any(|o| o.blocks(r, tmax))
     }
 
     /// Radiance along `r` (Whitted's eq. 2), recursing up to `max_depth`.
@@ -684,9 +694,13 @@ impl Scene {
             ) {
                 continue;
             }
-            let g = Geometry::from_vectors(n.to_array(), ldir.to_array(), e.to_array());
-            let i_d = pd * g.nl;
-            let i_s = m.specular(&g, uv);
+            // A Lambert surface needs only N·L; the other models the whole geometry.
+            let (i_d, i_s) = if m.model.kind == ModelKind::Lambert {
+                (pd * n.dot(ldir), 0.0)
+            } else {
+                let g = Geometry::from_vectors(n.to_array(), ldir.to_array(), e.to_array());
+                (pd * g.nl, m.specular(&g, uv))
+            };
             out += (albedo * i_d + DVec3::splat(i_s)) * irr * std::f64::consts::FRAC_1_PI;
         }
         if depth + 1 < self.max_depth {
