@@ -619,11 +619,10 @@ pub fn refract(d: DVec3, n: DVec3, eta: f64) -> Option<DVec3> {
 }
 
 /// One traced sample: radiance and the object hit first (for the anti-aliasing test).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 struct Sample {
     color: DVec3,
-    display: DVec3,
-    object: i64,
+    object: i32,
     near_miss: bool,
 }
 
@@ -750,9 +749,7 @@ impl Scene {
         let color = self.trace(&r, 0, 1.0, c);
         Sample {
             color,
-            // Display-like value (gamma 2: the square root) for the anti-aliasing test.
-            display: color.clamp(DVec3::ZERO, DVec3::ONE).map(f64::sqrt),
-            object: hit.map_or(-1, |h| h.0 as i64),
+            object: hit.map_or(-1, |h| h.0 as i32),
             near_miss,
         }
     }
@@ -763,80 +760,68 @@ impl Scene {
         let total: [AtomicU64; 4] = Default::default();
         let footprint = (0.5 * self.camera.fov_deg.to_radians()).tan() * 2.0 / w.max(1) as f64;
         let cam = &self.camera.frame();
-        let pixels: Vec<[f32; 3]> = match self.antialias {
+        // Every pass writes rows in place into a preallocated buffer (no per-row vectors to
+        // join), one rayon task per row, ray counts kept per row.
+        let mut pixels = vec![[0.0f32; 3]; (w as usize) * (h as usize)];
+        let rows = pixels.par_chunks_mut(w.max(1) as usize).enumerate();
+        match self.antialias {
             AntiAlias::None | AntiAlias::Uniform(_) => {
                 let n = match self.antialias {
                     AntiAlias::Uniform(n) => n.max(1),
                     _ => 1,
                 };
-                (0..h)
-                    .into_par_iter()
-                    .flat_map_iter(|y| {
-                        let c = Counters::default();
-                        let row: Vec<[f32; 3]> = (0..w)
-                            .map(|x| {
-                                let mut sum = DVec3::ZERO;
-                                for j in 0..n {
-                                    for i in 0..n {
-                                        let sx = x as f64 + (i as f64 + 0.5) / n as f64;
-                                        let sy = y as f64 + (j as f64 + 0.5) / n as f64;
-                                        sum += self.sample(cam, sx, sy, footprint, &c).color;
-                                    }
-                                }
-                                let v = sum / (n * n) as f64;
-                                [v.x as f32, v.y as f32, v.z as f32]
-                            })
-                            .collect();
-                        c.add_to(&total);
-                        progress();
-                        row
-                    })
-                    .collect()
+                rows.for_each(|(y, row)| {
+                    let c = Counters::default();
+                    for (x, px) in row.iter_mut().enumerate() {
+                        let mut sum = DVec3::ZERO;
+                        for j in 0..n {
+                            for i in 0..n {
+                                let sx = x as f64 + (i as f64 + 0.5) / n as f64;
+                                let sy = y as f64 + (j as f64 + 0.5) / n as f64;
+                                sum += self.sample(cam, sx, sy, footprint, &c).color;
+                            }
+                        }
+                        let v = sum / (n * n) as f64;
+                        *px = [v.x as f32, v.y as f32, v.z as f32];
+                    }
+                    c.add_to(&total);
+                    progress();
+                });
             }
             AntiAlias::Adaptive {
                 threshold,
                 max_level,
             } => {
                 // Corner samples, shared by neighbouring pixels.
-                let corners: Vec<Sample> = (0..=h)
-                    .into_par_iter()
-                    .flat_map_iter(|y| {
-                        let c = Counters::default();
-                        let row: Vec<Sample> = (0..=w)
-                            .map(|x| self.sample(cam, x as f64, y as f64, footprint, &c))
-                            .collect();
-                        c.add_to(&total);
-                        row
-                    })
-                    .collect();
                 let cw = (w + 1) as usize;
-                (0..h)
-                    .into_par_iter()
-                    .flat_map_iter(|y| {
-                        let c = Counters::default();
-                        let row: Vec<[f32; 3]> = (0..w)
-                            .map(|x| {
-                                let (xi, yi) = (x as usize, y as usize);
-                                let q = [
-                                    corners[yi * cw + xi],
-                                    corners[yi * cw + xi + 1],
-                                    corners[(yi + 1) * cw + xi],
-                                    corners[(yi + 1) * cw + xi + 1],
-                                ];
-                                let v = self.adaptive(
-                                    cam, x as f64, y as f64, 1.0, q, 0, threshold, max_level,
-                                    footprint, &c,
-                                );
-                                [v.x as f32, v.y as f32, v.z as f32]
-                            })
-                            .collect();
-                        c.add_to(&total);
-                        progress();
-                        row
-                    })
-                    .collect()
+                let mut corners = vec![Sample::default(); cw * (h as usize + 1)];
+                corners.par_chunks_mut(cw).enumerate().for_each(|(y, row)| {
+                    let c = Counters::default();
+                    for (x, q) in row.iter_mut().enumerate() {
+                        *q = self.sample(cam, x as f64, y as f64, footprint, &c);
+                    }
+                    c.add_to(&total);
+                });
+                rows.for_each(|(yi, row)| {
+                    let c = Counters::default();
+                    for (xi, px) in row.iter_mut().enumerate() {
+                        let q = [
+                            corners[yi * cw + xi],
+                            corners[yi * cw + xi + 1],
+                            corners[(yi + 1) * cw + xi],
+                            corners[(yi + 1) * cw + xi + 1],
+                        ];
+                        let v = self.adaptive(
+                            cam, xi as f64, yi as f64, 1.0, q, 0, threshold, max_level, footprint,
+                            &c,
+                        );
+                        *px = [v.x as f32, v.y as f32, v.z as f32];
+                    }
+                    c.add_to(&total);
+                    progress();
+                });
             }
-        };
+        }
         Image {
             width: w,
             height: h,
@@ -861,9 +846,11 @@ impl Scene {
         footprint: f64,
         c: &Counters,
     ) -> DVec3 {
-        let d0 = q[0].display;
+        // Display-like values (gamma 2: the square root) for the test.
+        let disp = |v: DVec3| v.clamp(DVec3::ZERO, DVec3::ONE).map(f64::sqrt);
+        let d0 = disp(q[0].color);
         let differ = q.iter().any(|a| {
-            (a.display - d0).abs().max_element() > threshold
+            (disp(a.color) - d0).abs().max_element() > threshold
                 || a.object != q[0].object
                 || a.near_miss
         });
