@@ -271,6 +271,7 @@ impl Object {
     }
 
     /// True if `r` hits the object before `tmax` (a shadow ray's test: no normal needed).
+    #[inline]
     pub fn blocks(&self, r: &Ray, tmax: f64) -> bool {
         match &self.shape {
             Shape::Sphere { center, radius } => sphere_hit(r, *center, *radius, tmax).is_some(),
@@ -279,6 +280,7 @@ impl Object {
     }
 
     /// Nearest hit along `r` before `tmax`: (t, outward normal).
+    #[inline]
     pub fn intersect(&self, r: &Ray, tmax: f64) -> Option<(f64, DVec3)> {
         // Bounding-sphere test first (Whitted's bounding volumes); a sphere is its own bound.
         let (c, rad) = self.bound;
@@ -645,9 +647,21 @@ impl Scene {
 
     /// Radiance along `r` (Whitted's eq. 2), recursing up to `max_depth`.
     pub fn trace(&self, r: &Ray, depth: u32, weight: f64, c: &Counters) -> DVec3 {
-        let Some((oi, t, n_out)) = self.intersect(r, f64::INFINITY) else {
-            return self.background;
-        };
+        match self.intersect(r, f64::INFINITY) {
+            Some(hit) => self.shade(r, hit, depth, weight, c),
+            None => self.background,
+        }
+    }
+
+    /// Radiance along `r` given its nearest hit (object, t, outward normal).
+    fn shade(
+        &self,
+        r: &Ray,
+        (oi, t, n_out): (usize, f64, DVec3),
+        depth: u32,
+        weight: f64,
+        c: &Counters,
+    ) -> DVec3 {
         let obj = &self.objects[oi];
         let m = &self.materials[obj.material];
         let p = r.o + t * r.d;
@@ -746,7 +760,11 @@ impl Scene {
             let r_min = footprint * t;
             t > 0.0 && rad < r_min && (v - t * r.d).length() < r_min
         });
-        let color = self.trace(&r, 0, 1.0, c);
+        // The primary hit is already known: shade it without intersecting again.
+        let color = match hit {
+            Some(h) => self.shade(&r, h, 0, 1.0, c),
+            None => self.background,
+        };
         Sample {
             color,
             object: hit.map_or(-1, |h| h.0 as i32),
