@@ -814,8 +814,9 @@ fn start_vector(p: &BrdfProblem, var_names: &[String], start: &[(String, f64)]) 
 
 /// Variable projection over a grid of the nonlinear parameters: at each grid point the free
 /// ps and pd of each channel come from a weighted linear least-squares solve (weights that
-/// linearise the log loss), clipped to ≥ 0; the best three grid points are returned as
-/// solver variables.
+/// linearise the log loss), clipped to ≥ 0; grid points are ranked by that linearised cost
+/// (it needs no logarithm, and ranks the real data sets' basins as the log loss does), and the
+/// best three are returned as solver variables.
 fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> Vec<Vec<f64>> {
     let p = full.subsample(500);
     let nfree = p.transforms.len();
@@ -866,6 +867,7 @@ fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> V
         .filter_map(|pt| {
             // Natural values of all free variables at this grid point (linear ones solved).
             let mut theta = vec![f64::NAN; nfree];
+            let mut score = 0.0;
             for ((k, _), v) in nonlinear.iter().zip(pt) {
                 theta[*k] = *v;
             }
@@ -894,6 +896,7 @@ fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> V
                     _ => None,
                 };
                 let (mut a11, mut a12, mut a22, mut b1, mut b2) = (0.0, 0.0, 0.0, 0.0, 0.0);
+                let mut yy = 0.0;
                 let basis = match ips {
                     Some(_) => problem::brdf_values(&spec_model, &p.rows, rows.clone()),
                     None => vec![0.0; rows.len()],
@@ -913,6 +916,7 @@ fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> V
                     a22 += w * d * d;
                     b1 += w * s * y;
                     b2 += w * d * y;
+                    yy += w * y * y;
                 }
                 let solve1 = |a: f64, b: f64| if a > 0.0 { (b / a).max(0.0) } else { 0.0 };
                 let free_ps = ips.is_some() && fixed_ps.is_none();
@@ -941,6 +945,9 @@ fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> V
                     (false, true) => (0.0, solve1(a22, b2)),
                     (false, false) => (0.0, 0.0),
                 };
+                // The linearised cost at the solved (ps, pd): Σ w (y − ps s − pd/π)².
+                score += yy + a11 * ps * ps + 2.0 * a12 * ps * pd + a22 * pd * pd
+                    - 2.0 * (b1 * ps + b2 * pd);
                 if let (Some(i), true) = (ips, free_ps)
                     && let Slot::Free(k) = slots[i]
                 {
@@ -953,8 +960,7 @@ fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> V
             let x: Vec<f64> = (0..nfree)
                 .map(|k| p.transforms[k].invert(theta[k]))
                 .collect();
-            let c = lsq::cost(&p, &x, Robust::None)?;
-            Some((c, x))
+            score.is_finite().then_some((score, x))
         })
         .collect();
     scored.sort_by(|a, b| a.0.total_cmp(&b.0));
