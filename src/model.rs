@@ -53,15 +53,18 @@ pub struct Geometry {
 
 impl Geometry {
     /// Geometry from the cosines N·L, N·E and L·E of unit vectors (N the surface normal).
+    #[inline]
     pub fn from_cosines(nl: f64, ne: f64, le: f64) -> Self {
         // |L+E|² = 2 + 2 L·E; H·E = (1 + L·E)/|L+E|; N·H = (N·L + N·E)/|L+E|.
+        // Written with selects rather than branches, so loops over many samples vectorise.
         let len2 = (2.0 + 2.0 * le).max(0.0);
-        let (nh, eh) = if len2 > 1e-300 {
-            let inv = 1.0 / len2.sqrt();
-            ((nl + ne) * inv, ((1.0 + le) * inv).max(0.0))
+        let ok = len2 > 1e-300;
+        let inv = if ok {
+            1.0 / (if ok { len2 } else { 1.0 }).sqrt()
         } else {
-            (0.0, 0.0)
+            0.0
         };
+        let (nh, eh) = ((nl + ne) * inv, ((1.0 + le) * inv).max(0.0));
         let mut g = Geometry {
             nl,
             ne,
@@ -173,21 +176,22 @@ pub fn geometric_attenuation(g: &Geometry) -> f64 {
 
 /// G/(N·E) in Blinn's division-safe form ("Computational considerations"): the minimum of
 /// Ga, Gb, Gc is chosen before any division, so N·E → 0 never divides by zero where G → 0.
+#[inline]
 pub fn g_over_ne(g: &Geometry) -> f64 {
     let (nl, ne, nh, eh) = (g.nl, g.ne, g.nh, g.eh);
-    if ne <= 0.0 || nl <= 0.0 || eh <= 0.0 {
-        return 0.0;
-    }
-    if ne < nl {
-        if 2.0 * ne * nh < eh {
-            2.0 * nh / eh
-        } else {
-            1.0 / ne
-        }
-    } else if 2.0 * nl * nh < eh {
-        2.0 * nh * nl / (eh * ne)
+    // Pick the numerator and denominator of the smallest term first, then divide once:
+    // Gb/N·E = 1/N·E; Ga/N·E = 2 N·H/E·H where N·E < N·L; Gc/N·E = 2 N·H N·L/(E·H N·E).
+    let masked = 2.0 * ne.min(nl) * nh < eh;
+    let (num, den) = match (masked, ne < nl) {
+        (false, _) => (1.0, ne),
+        (true, true) => (2.0 * nh, eh),
+        (true, false) => (2.0 * nh * nl, eh * ne),
+    };
+    let ok = ne > 0.0 && nl > 0.0 && eh > 0.0;
+    if ok {
+        num / if ok { den } else { 1.0 }
     } else {
-        1.0 / ne
+        0.0
     }
 }
 
