@@ -541,6 +541,12 @@ impl Model {
         &self.p[..self.param_names().len()]
     }
 
+    /// The diffuse coefficient pd (every model's last parameter).
+    #[inline]
+    pub fn pd(&self) -> f64 {
+        self.p[self.param_names().len() - 1]
+    }
+
     /// Value of the parameter `name`, if the model has it.
     pub fn get(&self, name: &str) -> Option<f64> {
         let i = self.param_names().iter().position(|n| *n == name)?;

@@ -414,11 +414,7 @@ pub struct Material {
 
 impl Material {
     fn pd(&self) -> f64 {
-        let names = self.model.param_names();
-        names
-            .iter()
-            .position(|n| *n == "pd")
-            .map_or(0.0, |i| self.model.p[i])
+        self.model.pd()
     }
 
     /// Blinn's specular intensity for a unit light (the model with pd = 0).
