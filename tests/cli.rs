@@ -596,3 +596,32 @@ material = "white"
         &["no line given", "--row"],
     );
 }
+
+/// `fit --repeat N` fits N times in one process and reports the median time; the fit itself
+/// is identical to a single run (same parameters and cost to the last bit), and N is bounded.
+#[test]
+fn fit_repeat_gives_the_same_fit() {
+    let dir = tempfile::tempdir().unwrap();
+    let one = dir.path().join("one.json");
+    let many = dir.path().join("many.json");
+    let f = "data/blinn-mgo.csv";
+    assert!(
+        brdfit(&["fit", f, "--json", one.to_str().unwrap()])
+            .status
+            .success()
+    );
+    let out = brdfit(&["fit", f, "--repeat", "3", "--json", many.to_str().unwrap()]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let read = |p: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let (a, b) = (read(&one), read(&many));
+    assert_eq!(a["params"], b["params"]);
+    assert_eq!(a["cost"], b["cost"]);
+    assert!(b["seconds"].as_f64().unwrap() > 0.0);
+    assert_eq!(brdfit(&["fit", f, "--repeat", "0"]).status.code(), Some(2));
+}
