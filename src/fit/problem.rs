@@ -717,53 +717,24 @@ fn ts_d3_log_body<const JAC: bool>(
     let pd_pi = p[3] * std::f64::consts::FRAC_1_PI;
     let mut acc = [[0.0f64; LANES]; SUMS];
     let ones = [1.0f64; LANES];
-    let lane = |v: &[f64], i: usize| -> [f64; LANES] { v[i..i + LANES].try_into().expect("block") };
+    let cols = [&rows.nl, &rows.nh, &rows.eh, &rows.g_ne, &rows.target];
     let mut i = range.start;
     while i + LANES <= range.end {
-        let sw = if rows.weighted {
-            lane(&rows.sw, i)
-        } else {
-            ones
-        };
-        ts_d3_block::<JAC>(
-            &k,
-            pd_pi,
-            [
-                &lane(&rows.nl, i),
-                &lane(&rows.nh, i),
-                &lane(&rows.eh, i),
-                &lane(&rows.g_ne, i),
-                &lane(&rows.target, i),
-                &sw,
-            ],
-            &mut acc,
-        );
+        let lane = |v: &Vec<f64>| -> [f64; LANES] { v[i..i + LANES].try_into().expect("block") };
+        let sw = if rows.weighted { lane(&rows.sw) } else { ones };
+        ts_d3_block::<JAC>(&k, pd_pi, &cols.map(lane), &sw, &mut acc);
         i += LANES;
     }
     if i < range.end {
         // The tail: lanes past the end repeat the last row with weight 0.
         let len = range.end - i;
-        let pad = |v: &[f64], w: bool| -> [f64; LANES] {
-            std::array::from_fn(|l| match (l < len, w) {
-                (true, true) if !rows.weighted => 1.0,
-                (true, _) => v[i + l],
-                (false, true) => 0.0,
-                (false, false) => v[i + len - 1],
-            })
-        };
-        ts_d3_block::<JAC>(
-            &k,
-            pd_pi,
-            [
-                &pad(&rows.nl, false),
-                &pad(&rows.nh, false),
-                &pad(&rows.eh, false),
-                &pad(&rows.g_ne, false),
-                &pad(&rows.target, false),
-                &pad(&rows.sw, true),
-            ],
-            &mut acc,
-        );
+        let pad = |v: &Vec<f64>| -> [f64; LANES] { std::array::from_fn(|l| v[i + l.min(len - 1)]) };
+        let sw: [f64; LANES] = std::array::from_fn(|l| match (l < len, rows.weighted) {
+            (false, _) => 0.0,
+            (true, true) => rows.sw[i + l],
+            (true, false) => 1.0,
+        });
+        ts_d3_block::<JAC>(&k, pd_pi, &cols.map(pad), &sw, &mut acc);
     }
     let lane_sum = |k: usize| acc[k].iter().sum::<f64>();
     let mut t = 5;
@@ -777,15 +748,16 @@ fn ts_d3_log_body<const JAC: bool>(
     lane_sum(0)
 }
 
-/// One block of [`LANES`] rows of [`ts_d3_log`]: columns nl, nh, eh, g_ne, target, √weight.
+/// One block of [`LANES`] rows of [`ts_d3_log`]: columns nl, nh, eh, g_ne, target; √weight.
 #[inline(always)]
 fn ts_d3_block<const JAC: bool>(
     k: &TsD3,
     pd_pi: f64,
-    c: [&[f64; LANES]; 6],
+    c: &[[f64; LANES]; 5],
+    sw: &[f64; LANES],
     acc: &mut [[f64; LANES]; SUMS],
 ) {
-    let [nl, nh, eh, gn, tg, sw] = c;
+    let [nl, nh, eh, gn, tg] = c;
     let mut y = [0.0f64; LANES];
     let mut dy = [[0.0f64; LANES]; 3];
     for l in 0..LANES {
