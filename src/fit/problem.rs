@@ -538,15 +538,20 @@ impl Problem for BrdfProblem {
             let (model, map) = &prep.chans[c];
             let mut g = [[0.0f64; 4]; 4];
             let mut gr = [0.0f64; 4];
-            acc.cost += kernel(
-                &self.rows,
-                lo..hi,
-                self.loss,
-                model,
-                robust,
-                &mut g,
-                &mut gr,
-            );
+            // Torrance–Sparrow with D3 and the log loss (the default fit) has a lane kernel.
+            acc.cost += if ts_d3_log_applies(self.loss, model, robust) {
+                ts_d3_log(&self.rows, lo..hi, model.p, &mut g, &mut gr)
+            } else {
+                kernel_rows(
+                    &self.rows,
+                    lo..hi,
+                    self.loss,
+                    model,
+                    robust,
+                    &mut g,
+                    &mut gr,
+                )
+            };
             for j in 0..np {
                 let (kj, cj) = map[j];
                 if kj == usize::MAX {
@@ -592,26 +597,6 @@ impl Problem for BrdfProblem {
     }
 }
 
-/// The hot loop: residuals of one channel's rows `range` with the model's parameter gradient,
-/// accumulated into the model-space normal equations `g` (upper triangle) and `gr`; returns
-/// Σ ρ(r). Free of allocation. Blinn's Torrance–Sparrow model with D3 and the log loss (the
-/// default fit) has its own lane kernel ([`ts_d3_log`]); every other case goes row by row
-/// through [`Model::brdf_grad`].
-fn kernel(
-    rows: &Rows,
-    range: std::ops::Range<usize>,
-    loss: Loss,
-    model: &Model,
-    robust: Robust,
-    g: &mut [[f64; 4]; 4],
-    gr: &mut [f64; 4],
-) -> f64 {
-    if ts_d3_log_applies(loss, model, robust) {
-        return ts_d3_log(rows, range, model.p, g, gr);
-    }
-    kernel_rows(rows, range, loss, model, robust, g, gr)
-}
-
 /// f_r of `model` at rows `range` (the lane form of [`TsD3`] for Torrance–Sparrow with D3).
 pub fn brdf_values(model: &Model, rows: &Rows, range: std::ops::Range<usize>) -> Vec<f64> {
     if model.kind == ModelKind::TorranceSparrow && model.dist == Distribution::D3 {
@@ -638,7 +623,10 @@ fn ts_d3_log_applies(loss: Loss, model: &Model, robust: Robust) -> bool {
         && model.dist == Distribution::D3
 }
 
-/// [`kernel`] row by row through [`Model::brdf_grad`]: every model, loss and robust weight.
+/// The hot loop, row by row through [`Model::brdf_grad`] (every model, loss and robust weight):
+/// residuals of one channel's rows `range` with the model's parameter gradient, accumulated
+/// into the model-space normal equations `g` (upper triangle) and `gr`; returns Σ ρ(r). Free of
+/// allocation.
 fn kernel_rows(
     rows: &Rows,
     range: std::ops::Range<usize>,
