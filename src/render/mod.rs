@@ -777,13 +777,13 @@ impl Scene {
         // Every pass writes rows in place into a preallocated buffer (no per-row vectors to
         // join), one rayon task per row, ray counts kept per row.
         let mut pixels = vec![[0.0f32; 3]; (w as usize) * (h as usize)];
-        let rows = pixels.par_chunks_mut(w.max(1) as usize).enumerate();
         match self.antialias {
             AntiAlias::None | AntiAlias::Uniform(_) => {
                 let n = match self.antialias {
                     AntiAlias::Uniform(n) => n.max(1),
                     _ => 1,
                 };
+                let rows = pixels.par_chunks_mut(w.max(1) as usize).enumerate();
                 rows.for_each(|(y, row)| {
                     let c = Counters::default();
                     for (x, px) in row.iter_mut().enumerate() {
@@ -806,34 +806,37 @@ impl Scene {
                 threshold,
                 max_level,
             } => {
-                // Corner samples, shared by neighbouring pixels.
-                let cw = (w + 1) as usize;
-                let mut corners = vec![Sample::default(); cw * (h as usize + 1)];
-                corners.par_chunks_mut(cw).enumerate().for_each(|(y, row)| {
-                    let c = Counters::default();
-                    for (x, q) in row.iter_mut().enumerate() {
-                        *q = self.sample(cam, x as f64, y as f64, footprint, &c);
-                    }
-                    c.add_to(&total);
-                });
-                rows.for_each(|(yi, row)| {
-                    let c = Counters::default();
-                    for (xi, px) in row.iter_mut().enumerate() {
-                        let q = [
-                            corners[yi * cw + xi],
-                            corners[yi * cw + xi + 1],
-                            corners[(yi + 1) * cw + xi],
-                            corners[(yi + 1) * cw + xi + 1],
-                        ];
-                        let v = self.adaptive(
-                            cam, xi as f64, yi as f64, 1.0, q, 0, threshold, max_level, footprint,
-                            &c,
-                        );
-                        *px = [v.x as f32, v.y as f32, v.z as f32];
-                    }
-                    c.add_to(&total);
-                    progress();
-                });
+                // Bands of rows, each swept with two rows of corner samples shared by
+                // neighbouring pixels (a band recomputes the corner row above it: 1 row in 32).
+                const BAND: usize = 32;
+                let wu = w.max(1) as usize;
+                let corner_row = |y: usize, c: &Counters| -> Vec<Sample> {
+                    (0..=wu)
+                        .map(|x| self.sample(cam, x as f64, y as f64, footprint, c))
+                        .collect()
+                };
+                pixels
+                    .par_chunks_mut(wu * BAND)
+                    .enumerate()
+                    .for_each(|(b, band)| {
+                        let c = Counters::default();
+                        let mut top = corner_row(b * BAND, &c);
+                        for (k, row) in band.chunks_mut(wu).enumerate() {
+                            let yi = b * BAND + k;
+                            let bottom = corner_row(yi + 1, &c);
+                            for (xi, px) in row.iter_mut().enumerate() {
+                                let q = [top[xi], top[xi + 1], bottom[xi], bottom[xi + 1]];
+                                let v = self.adaptive(
+                                    cam, xi as f64, yi as f64, 1.0, q, 0, threshold, max_level,
+                                    footprint, &c,
+                                );
+                                *px = [v.x as f32, v.y as f32, v.z as f32];
+                            }
+                            top = bottom;
+                            progress();
+                        }
+                        c.add_to(&total);
+                    });
             }
         }
         Image {
