@@ -620,6 +620,8 @@ pub fn refract(d: DVec3, n: DVec3, eta: f64) -> Option<DVec3> {
 #[derive(Clone, Copy, Debug, Default)]
 struct Sample {
     color: DVec3,
+    /// Display-like value (gamma 2: √ of the clamped linear value) for the subdivision test.
+    display: DVec3,
     object: i32,
     near_miss: bool,
 }
@@ -763,6 +765,7 @@ impl Scene {
         };
         Sample {
             color,
+            display: color.clamp(DVec3::ZERO, DVec3::ONE).map(f64::sqrt),
             object: hit.map_or(-1, |h| h.0 as i32),
             near_miss,
         }
@@ -863,11 +866,9 @@ impl Scene {
         footprint: f64,
         c: &Counters,
     ) -> DVec3 {
-        // Display-like values (gamma 2: the square root) for the test.
-        let disp = |v: DVec3| v.clamp(DVec3::ZERO, DVec3::ONE).map(f64::sqrt);
-        let d0 = disp(q[0].color);
+        let d0 = q[0].display;
         let differ = q.iter().any(|a| {
-            (disp(a.color) - d0).abs().max_element() > threshold
+            (a.display - d0).abs().max_element() > threshold
                 || a.object != q[0].object
                 || a.near_miss
         });
