@@ -741,6 +741,14 @@ impl Scene {
         out
     }
 
+    /// Radiance of the primary ray through (x, y): the uniform and no-anti-aliasing modes
+    /// need nothing else.
+    fn radiance(&self, cam: &CameraFrame, x: f64, y: f64, c: &Counters) -> DVec3 {
+        Counters::bump(&c.primary);
+        self.trace(&cam.ray(x, y), 0, 1.0, c)
+    }
+
+    /// A corner sample of the adaptive mode: radiance plus what the subdivision test reads.
     fn sample(&self, cam: &CameraFrame, x: f64, y: f64, footprint: f64, c: &Counters) -> Sample {
         Counters::bump(&c.primary);
         let r = cam.ray(x, y);
@@ -795,7 +803,7 @@ impl Scene {
                             for i in 0..n {
                                 let sx = x as f64 + (i as f64 + 0.5) / n as f64;
                                 let sy = y as f64 + (j as f64 + 0.5) / n as f64;
-                                sum += self.sample(cam, sx, sy, footprint, &c).color;
+                                sum += self.radiance(cam, sx, sy, &c);
                             }
                         }
                         let v = sum / (n * n) as f64;
