@@ -9,6 +9,11 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+/// mimalloc keeps freed pages for reuse: repeated fits (several channels, `--model all`,
+/// `--repeat`) do not fault fresh pages in on every pass as glibc malloc does after trimming.
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// Fit reflection models (Phong, Blinn's Torrance–Sparrow) to measured reflectance.
 #[derive(Parser, Debug)]
 #[command(name = "brdfit", version, about, long_about = None)]
