@@ -20,7 +20,7 @@ use crate::lanes::{self, LANES};
 use crate::model::Geometry;
 use crate::model::{Distribution, Model, ModelKind, param_bounds};
 use lsq::{Limits, Method, Problem, Robust, Solution};
-use problem::{BrdfProblem, Loss, Row, Rows, Slot, Transform, init_grid, linear_index};
+use problem::{BrdfProblem, Loss, Rows, Slot, Transform, init_grid, linear_index};
 use std::time::Instant;
 
 /// A fit that cannot be run, with the fix.
@@ -375,26 +375,36 @@ fn fill_rows(
             Loss::Log => lanes::ln_1p(&y).0,
             Loss::Linear => v,
         };
-        // L·E = sinθi sinθo cos(φo − φi) + cosθi cosθo.
-        let mut geo = [Geometry::from_cosines(1.0, 1.0, 1.0); LANES];
-        for l in 0..LANES {
-            geo[l] = Geometry::from_cosines(ci[l], co[l], si[l] * so[l] * cp[l] + ci[l] * co[l]);
+        // L·E = sinθi sinθo cos(φo − φi) + cosθi cosθo. Columns in the order of [`Rows::write`].
+        let mut col = [[0.0; LANES]; 8];
+        let mut keep = [false; LANES];
+        let mut w = [1.0; LANES];
+        if let Some(ws) = &ds.weights {
+            w[..n].copy_from_slice(&ws[k..k + n]);
         }
-        for l in 0..n {
-            if !v[l].is_finite() || max.is_some_and(|m| ti[l] > m || to[l] > m) {
-                continue;
+        let m = max.unwrap_or(f64::INFINITY);
+        for l in 0..LANES {
+            let g = Geometry::from_cosines(ci[l], co[l], si[l] * so[l] * cp[l] + ci[l] * co[l]);
+            let inside = !(ti[l] > m) & !(to[l] > m);
+            keep[l] = (l < n) & v[l].is_finite() & inside & (w[l] > 0.0) & g.visible();
+            [col[0][l], col[1][l], col[2][l], col[3][l], col[4][l], col[5][l]] =
+                [g.nl, g.ne, g.nh, g.eh, g.re, g.g_ne];
+            (col[6][l], col[7][l]) = (target[l], w[l].sqrt());
+        }
+        if keep.iter().all(|&x| x) {
+            // The usual case: the whole block is kept, written a lane vector at a time.
+            for (c, x) in cols.iter_mut().zip(&col) {
+                c[kept..kept + LANES].copy_from_slice(x);
             }
-            let w = ds.weights.as_ref().map_or(1.0, |w| w[k + l]);
-            let g = geo[l];
-            if w > 0.0 && g.visible() {
-                let row = Row {
-                    g,
-                    cos_i: g.nl,
-                    target: target[l],
-                    sw: w.sqrt(),
-                };
-                Rows::write(&mut cols, kept, &row);
-                kept += 1;
+            kept += LANES;
+        } else {
+            for l in 0..n {
+                if keep[l] {
+                    for (c, x) in cols.iter_mut().zip(&col) {
+                        c[kept] = x[l];
+                    }
+                    kept += 1;
+                }
             }
         }
         k += n;
