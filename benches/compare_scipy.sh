@@ -1,8 +1,17 @@
 #!/usr/bin/env bash
 # Side by side: brdfit fit and the scipy peer (../shared/peers/scipy_fit.py) on the same CSV
-# files, same loss (log) and same start, in one run. Prints both fit times (median of 5 fits in
-# one process each, fit only: geometry + solve + statistics, no file reading), both costs and
-# the ratio.
+# files, same loss (log) and same start, in one run. brdfit runs twice: its default (global
+# initialisation, then the local method) and --local-only (the local method from the start,
+# the same work as the peer). Every time is the median of 5 fits in one process (file reading
+# excluded), the way the peer times itself. benches/compare_scipy.py prints the table:
+#
+#   solve s     brdfit: seconds − geometry_seconds; peer: its own clock (least_squares only)
+#   geometry s  the parameter-free per-sample pass (peer: its geometry(), timed by the script)
+#   total s     the two together
+#   own cost    ½ Σ r² as each program sums it
+#   common cost ½ Σ r² at each program's parameters, one evaluator (long double)
+#   ratio       peer / brdfit: solve against solve, total against total; then brdfit's common
+#               cost relative to the peer's (negative or zero: no higher)
 #
 #   PYTHON=/tmp/peers/bin/python benches/compare_scipy.sh [SIZES...]
 #
@@ -15,36 +24,21 @@ SIZES=${*:-10000 1000000}
 START="n=1.5,c3=0.5,ps=0.5,pd=0.5"
 cargo build --release -q
 BIN=target/release/brdfit
+if [ ! -f "$PEER" ] || ! $PYTHON -c "import scipy" 2>/dev/null; then
+  echo "needs $PEER and scipy for $PYTHON" >&2
+  exit 2
+fi
 TMP=$(mktemp -d)
 trap 'rm -rf "$TMP"' EXIT
-printf "%-9s %-24s %11s %14s %9s\n" samples program seconds cost ratio
+printf "%-9s %-24s %9s %9s %9s %18s %18s %s\n" samples program "solve s" "geometry" "total s" \
+  "own cost" "common cost" "  solve   total   cost vs scipy"
 for n in $SIZES; do
   csv="$TMP/mgo-$n.csv"
   $BIN simulate --model torrance-sparrow --set n=1.8,c3=0.35,ps=0.667,pd=0.333 \
       --grid hemisphere:$n --noise 0.01 --seed 1 -o "$csv"
-  peer="n/a"
-  if [ -f "$PEER" ] && $PYTHON -c "import scipy" 2>/dev/null; then
-    peer=$($PYTHON "$PEER" "$csv" --loss log --start "$START" --repeat 5)
-  fi
-  for mode in "default" "local-only"; do
-    extra=""
-    [ "$mode" = "local-only" ] && extra="--local-only"
-    # Five fits in one process, median time: the way the peer times itself.
-    $BIN fit "$csv" --start "$START" $extra --repeat 5 --json "$TMP/fit.json" --force > /dev/null
-    $PYTHON - "$TMP" "$n" "$mode" "$peer" <<'PY'
-import json, sys
-tmp, n, mode, peer = sys.argv[1:5]
-f = json.load(open(f"{tmp}/fit.json"))
-t, cost = f["seconds"], f["cost"]
-line = f"{n:<9} {'brdfit ' + mode:<24} {t:11.4f} {cost:14.8e}"
-if peer != "n/a":
-    p = json.loads(peer)
-    rel = (cost - p["cost"]) / p["cost"]
-    line += f" {p['seconds'] / t:8.1f}x  (cost vs scipy {rel:+.1e} relative)"
-print(line)
-PY
-  done
-  if [ "$peer" != "n/a" ]; then
-    $PYTHON -c "import json,sys; p=json.loads(sys.argv[1]); print(f\"{sys.argv[2]:<9} {'scipy least_squares lm':<24} {p['seconds']:11.4f} {p['cost']:14.8e}\")" "$peer" "$n"
-  fi
+  peer=$($PYTHON "$PEER" "$csv" --loss log --start "$START" --repeat 5)
+  $BIN fit "$csv" --start "$START" --repeat 5 --json "$TMP/default.json" --force > /dev/null
+  $BIN fit "$csv" --start "$START" --local-only --repeat 5 --json "$TMP/local.json" --force > /dev/null
+  $PYTHON benches/compare_scipy.py "$csv" "$PEER" "$peer" \
+      "default=$TMP/default.json" "local-only=$TMP/local.json"
 done

@@ -127,6 +127,7 @@ fn fit_json(f: &FitResult) -> Value {
     let mut v = f.to_json();
     if let Some(o) = v.as_object_mut() {
         o.remove("seconds");
+        o.remove("geometry_seconds");
     }
     v
 }

@@ -181,7 +181,7 @@ impl Default for Limits {
         Limits {
             max_iter: 500,
             max_eval: 2000,
-            ftol: 1e-12,
+            ftol: 1e-14,
             xtol: 1e-15,
             gtol: 1e-14,
         }
