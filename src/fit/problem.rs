@@ -402,16 +402,28 @@ impl BrdfProblem {
 
     /// A problem on every `stride`-th row of each channel (deterministic subsample).
     pub fn subsample(&self, max_rows_per_channel: usize) -> BrdfProblem {
-        let mut rows = Rows::with_capacity(0, self.rows.weighted());
+        let mut pick = Vec::new();
         let mut starts = vec![0];
         for c in 0..self.layout.len() {
             let (lo, hi) = (self.starts[c], self.starts[c + 1]);
             let stride = (hi - lo).div_ceil(max_rows_per_channel).max(1);
-            for i in (lo..hi).step_by(stride) {
-                rows.push(&self.rows.get(i));
-            }
-            starts.push(rows.len());
+            pick.extend((lo..hi).step_by(stride));
+            starts.push(pick.len());
         }
+        // Column by column: each gather streams one column.
+        let r = &self.rows;
+        let take = |v: &Vec<f64>| pick.iter().map(|&i| v[i]).collect::<Vec<f64>>();
+        let rows = Rows {
+            nl: take(&r.nl),
+            ne: take(&r.ne),
+            nh: take(&r.nh),
+            eh: take(&r.eh),
+            re: take(&r.re),
+            g_ne: take(&r.g_ne),
+            target: take(&r.target),
+            sw: if r.weighted { take(&r.sw) } else { Vec::new() },
+            weighted: r.weighted,
+        };
         BrdfProblem {
             rows: std::sync::Arc::new(rows),
             starts,
