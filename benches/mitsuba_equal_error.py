@@ -148,7 +148,11 @@ with tempfile.TemporaryDirectory() as tmp:
     settings = ['mode = "none"'] + [f'mode = "uniform"\nsamples = {n}' for n in (2, 3, 4, 6)] + [
         f'mode = "adaptive"\nthreshold = {th}\nmax_level = {lv}'
         for th, lv in [(0.3, 1), (0.2, 1), (0.2, 2), (0.1, 2), (0.1, 3), (0.05, 3), (0.02, 3),
-                       (0.01, 3), (0.005, 4), (0.001, 5)]]
+                       (0.01, 3), (0.005, 4), (0.001, 5)]] + [
+        f'mode = "adaptive"\nthreshold = {th}\nmax_level = {lv}\nblock = {b}'
+        for b in (2, 4)
+        for th, lv in [(0.3, 0), (0.2, 0), (0.1, 0), (0.1, 1), (0.05, 1), (0.05, 2), (0.02, 2),
+                       (0.02, 3)]]
     for aa in settings:
         img, t, rpp = brdfit(aa, RUNS, tmp)
         e = rmse(img, ref)

@@ -1498,6 +1498,7 @@ fn run_render(
             render::AntiAlias::Adaptive {
                 threshold: 0.02,
                 max_level: 3,
+                block: 1,
             },
         );
         for (name, img) in &imgs {

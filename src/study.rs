@@ -570,6 +570,7 @@ pub fn render_study_scenes(scenes: &[crate::render::Scene]) -> Vec<RenderRow> {
             AntiAlias::Adaptive {
                 threshold: th,
                 max_level: 4,
+                block: 1,
             },
         ));
     }

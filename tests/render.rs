@@ -338,6 +338,7 @@ fn adaptive_antialiasing_traces_fewer_rays_and_renders_deterministically() {
     s.antialias = AntiAlias::Adaptive {
         threshold: 0.02,
         max_level: 3,
+        block: 1,
     };
     let a = s.render(&|| {});
     let b = s.render(&|| {});
@@ -423,5 +424,157 @@ material = "white"
     assert_eq!(
         none, 0.0,
         "centre samples miss it (the test needs a sphere between samples)"
+    );
+}
+
+/// A floor filling the view under a low point light: radiance varies smoothly (1/r² and N·L),
+/// with no edges inside the image.
+const GRADIENT: &str = r#"
+[camera]
+eye = [0.0, 3.0, 0.0]
+target = [0.0, 0.0, 0.0]
+up = [0.0, 0.0, -1.0]
+fov = 40.0
+width = 66
+height = 50
+[antialias]
+mode = "adaptive"
+threshold = 1.0
+max_level = 0
+block = 4
+[[lights]]
+kind = "point"
+position = [0.8, 2.0, 0.3]
+intensity = 1.0
+[materials.floor]
+model = "lambert"
+params = { pd = 1.0 }
+[[objects]]
+kind = "plane"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+size = 100.0
+material = "floor"
+"#;
+
+#[test]
+fn block_interpolation_matches_centre_samples_on_a_smooth_image() {
+    // Where a block's corners agree it is filled by bilinear interpolation: each pixel gets
+    // the patch's value at its own centre. On a smooth image that is close to the radiance of
+    // the pixel's centre ray (mode none), with an error of second order in the block size:
+    // halving the block quarters it (a misplaced weight would leave a first-order error).
+    // Width and height are not multiples of the block.
+    let mut s = scene(GRADIENT);
+    s.antialias = AntiAlias::None;
+    let centre = s.render(&|| {});
+    let mut worst = Vec::new();
+    for block in [2, 4] {
+        s.antialias = AntiAlias::Adaptive {
+            threshold: 1.0,
+            max_level: 0,
+            block,
+        };
+        let img = s.render(&|| {});
+        assert!(
+            img.pixels.iter().all(|p| lum(*p) > 0.0),
+            "a pixel was left unwritten"
+        );
+        let w = img
+            .pixels
+            .iter()
+            .zip(&centre.pixels)
+            .map(|(a, b)| (lum(*a) - lum(*b)).abs() / lum(*b))
+            .fold(0.0, f64::max);
+        // Corners on a lattice of `block` pixels, nothing split: about 1/block² rays per
+        // pixel (bands of rows repeat a corner row at their top edge).
+        let b = block as u64;
+        let lattice = (66u64.div_ceil(b) + 1) * (50u64.div_ceil(b) + 1);
+        assert!(
+            (lattice..lattice * 3 / 2).contains(&img.rays[0]),
+            "block {block}: {} primary rays, lattice {lattice}",
+            img.rays[0]
+        );
+        worst.push(w);
+    }
+    assert!(
+        worst[1] < 0.01,
+        "block 4: bilinear fill differs from centre rays by {}",
+        worst[1]
+    );
+    let ratio = worst[1] / worst[0];
+    assert!(
+        (3.0..5.5).contains(&ratio),
+        "error ratio block 4 / block 2 = {ratio} ({worst:?})"
+    );
+}
+
+#[test]
+fn block_mode_at_threshold_zero_is_whitteds_pixel_corner_scheme() {
+    // With threshold 0 every block whose corners are not identical splits down to pixels,
+    // whose corners are then the very samples of block = 1: the same image, and no more rays
+    // (identical corners, as on the black background, are not split).
+    let mut s = fig7_scene(Model::blinn_mgo(), Lighting::Edge, 90);
+    let aa = |block| AntiAlias::Adaptive {
+        threshold: 0.0,
+        max_level: 2,
+        block,
+    };
+    s.antialias = aa(1);
+    let whitted = s.render(&|| {});
+    for block in [2, 4] {
+        s.antialias = aa(block);
+        let img = s.render(&|| {});
+        let worst = img
+            .pixels
+            .iter()
+            .zip(&whitted.pixels)
+            .map(|(a, b)| (0..3).map(|k| (a[k] - b[k]).abs()).fold(0.0f32, f32::max))
+            .fold(0.0f32, f32::max);
+        assert!(
+            worst <= 1e-6,
+            "block {block}: differs from block 1 by {worst}"
+        );
+        assert!(
+            img.rays[0] <= whitted.rays[0],
+            "block {block}: {:?}",
+            img.rays
+        );
+        assert_eq!(
+            s.render(&|| {}).pixels,
+            img.pixels,
+            "block {block} is not deterministic"
+        );
+    }
+}
+
+#[test]
+fn block_mode_renders_the_bundled_scene_close_to_a_supersampled_one_with_fewer_rays() {
+    let base = std::fs::read_to_string("data/scenes/mitsuba-front.toml").unwrap();
+    let mut s = scene(&base);
+    s.camera.width = 256;
+    s.camera.height = 256;
+    s.antialias = AntiAlias::Uniform(8);
+    let reference = s.render(&|| {});
+    s.antialias = AntiAlias::None;
+    let none = s.render(&|| {});
+    s.antialias = AntiAlias::Adaptive {
+        threshold: 0.05,
+        max_level: 1,
+        block: 2,
+    };
+    let block = s.render(&|| {});
+    let (e_none, e_block) = (
+        render::rmse(&none, &reference),
+        render::rmse(&block, &reference),
+    );
+    assert!(
+        e_block < e_none,
+        "block {e_block} vs one centre ray {e_none}"
+    );
+    assert!(
+        block.rays[0] < none.rays[0],
+        "block: {} primary rays, none: {}",
+        block.rays[0],
+        none.rays[0]
     );
 }

@@ -511,6 +511,12 @@ pub enum AntiAlias {
         threshold: f64,
         /// Maximum subdivision depth (a pixel becomes at most 2^level × 2^level squares).
         max_level: u32,
+        /// Side in pixels of the first squares (1, 2 or 4). 1 is Whitted's scheme, corners on
+        /// every pixel. Larger blocks trace corners on a coarser lattice and subdivide the same
+        /// way down to pixels and below; a block whose four corners agree is filled from them by
+        /// bilinear interpolation (each pixel gets the patch's mean over its area, the value at
+        /// its centre), so smooth regions cost fewer than one ray per pixel.
+        block: u32,
     },
 }
 
@@ -816,6 +822,60 @@ impl Scene {
             AntiAlias::Adaptive {
                 threshold,
                 max_level,
+                block,
+            } if block > 1 => {
+                // Blocks of B × B pixels with corners on a lattice of spacing B, in bands of
+                // rows; a band recomputes the corner row above it.
+                const BAND: usize = 32;
+                let (wu, hu, b) = (w.max(1) as usize, h.max(1) as usize, block as usize);
+                let nb = wu.div_ceil(b);
+                let corner_row = |y: usize, c: &Counters| -> Vec<Sample> {
+                    (0..=nb)
+                        .map(|k| {
+                            let fp = footprint * b as f64;
+                            self.sample(cam, (k * b) as f64, y as f64, fp, c)
+                        })
+                        .collect()
+                };
+                pixels
+                    .par_chunks_mut(wu * BAND)
+                    .enumerate()
+                    .for_each(|(band_index, band)| {
+                        let c = Counters::default();
+                        let y0 = band_index * BAND;
+                        let rows = band.len() / wu;
+                        let mut top = corner_row(y0, &c);
+                        for by in (0..rows).step_by(b) {
+                            let bottom = corner_row(y0 + by + b, &c);
+                            for k in 0..nb {
+                                let q = [top[k], top[k + 1], bottom[k], bottom[k + 1]];
+                                let area = BlockArea {
+                                    out: &mut *band,
+                                    y0,
+                                    width: wu,
+                                    height: hu.min(y0 + rows),
+                                };
+                                self.block(
+                                    cam,
+                                    (k * b, y0 + by, b),
+                                    q,
+                                    (threshold, max_level, footprint),
+                                    area,
+                                    &c,
+                                );
+                            }
+                            top = bottom;
+                            for _ in 0..b.min(rows - by) {
+                                progress();
+                            }
+                        }
+                        c.add_to(&total);
+                    });
+            }
+            AntiAlias::Adaptive {
+                threshold,
+                max_level,
+                ..
             } => {
                 // Bands of rows, each swept with two rows of corner samples shared by
                 // neighbouring pixels (a band recomputes the corner row above it: 1 row in 32).
@@ -874,13 +934,7 @@ impl Scene {
         footprint: f64,
         c: &Counters,
     ) -> DVec3 {
-        let d0 = q[0].display;
-        let differ = q.iter().any(|a| {
-            (a.display - d0).abs().max_element() > threshold
-                || a.object != q[0].object
-                || a.near_miss
-        });
-        if !differ || level >= max_level {
+        if !corners_differ(&q, threshold) || level >= max_level {
             return (q[0].color + q[1].color + q[2].color + q[3].color) * 0.25;
         }
         let h = 0.5 * s;
@@ -905,6 +959,86 @@ impl Scene {
             + sub(x, y + h, [left, mid, q[2], bottom])
             + sub(x + h, y + h, [mid, right, bottom, q[3]]))
     }
+
+    /// A block of `s` × `s` pixels at pixel (x, y) with corner samples q (as in
+    /// [`Scene::adaptive`]): filled by bilinear interpolation where the corners agree, else
+    /// split in four (five new samples) down to single pixels, which [`Scene::adaptive`] takes
+    /// over. Pixels outside the image are skipped.
+    fn block(
+        &self,
+        cam: &CameraFrame,
+        (x, y, s): (usize, usize, usize),
+        q: [Sample; 4],
+        (threshold, max_level, footprint): (f64, u32, f64),
+        area: BlockArea,
+        c: &Counters,
+    ) {
+        let BlockArea {
+            out,
+            y0,
+            width,
+            height,
+        } = area;
+        if s == 1 {
+            if x < width && y < height {
+                let v = self.adaptive(
+                    cam, x as f64, y as f64, 1.0, q, 0, threshold, max_level, footprint, c,
+                );
+                out[(y - y0) * width + x] = [v.x as f32, v.y as f32, v.z as f32];
+            }
+            return;
+        }
+        if !corners_differ(&q, threshold) {
+            let sf = s as f64;
+            for j in y..(y + s).min(height) {
+                let v = (j - y) as f64 / sf + 0.5 / sf;
+                for i in x..(x + s).min(width) {
+                    let u = (i - x) as f64 / sf + 0.5 / sf;
+                    let col = (1.0 - v) * ((1.0 - u) * q[0].color + u * q[1].color)
+                        + v * ((1.0 - u) * q[2].color + u * q[3].color);
+                    out[(j - y0) * width + i] = [col.x as f32, col.y as f32, col.z as f32];
+                }
+            }
+            return;
+        }
+        let h = s / 2;
+        let fp = footprint * h as f64;
+        let m = |dx: usize, dy: usize| self.sample(cam, (x + dx) as f64, (y + dy) as f64, fp, c);
+        let (top, left, mid, right, bottom) = (m(h, 0), m(0, h), m(h, h), m(s, h), m(h, s));
+        let opts = (threshold, max_level, footprint);
+        for (dx, dy, qq) in [
+            (0, 0, [q[0], top, left, mid]),
+            (h, 0, [top, q[1], mid, right]),
+            (0, h, [left, mid, q[2], bottom]),
+            (h, h, [mid, right, bottom, q[3]]),
+        ] {
+            let area = BlockArea {
+                out: &mut *out,
+                y0,
+                width,
+                height,
+            };
+            self.block(cam, (x + dx, y + dy, h), qq, opts, area, c);
+        }
+    }
+}
+
+/// Whitted's subdivision test on the corner samples of a square: display values differing by
+/// more than `threshold`, different objects hit, or a near miss of a small object.
+fn corners_differ(q: &[Sample; 4], threshold: f64) -> bool {
+    let d0 = q[0].display;
+    q.iter().any(|a| {
+        (a.display - d0).abs().max_element() > threshold || a.object != q[0].object || a.near_miss
+    })
+}
+
+/// The pixels a block may write: a band of whole rows starting at row `y0`, `width` wide, and
+/// the first row past the image (or the band).
+struct BlockArea<'a> {
+    out: &'a mut [[f32; 3]],
+    y0: usize,
+    width: usize,
+    height: usize,
 }
 
 /// sRGB transfer function of a linear value in [0, 1].

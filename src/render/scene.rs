@@ -16,6 +16,7 @@
 //! mode = "adaptive"         # adaptive | uniform | none
 //! threshold = 0.02          # adaptive: difference of √(linear value) that subdivides
 //! max_level = 3             # adaptive: at most 2^3 × 2^3 squares per pixel
+//! block = 1                 # adaptive: first squares of 1, 2 or 4 pixels (>1: interpolate)
 //! samples = 4               # uniform: 4 × 4 per pixel
 //! [[lights]]
 //! kind = "point"            # point (1/r² falloff) | directional
@@ -84,6 +85,7 @@ struct AaSpec {
     mode: String,
     threshold: Option<f64>,
     max_level: Option<u32>,
+    block: Option<u32>,
     samples: Option<u32>,
 }
 
@@ -296,6 +298,7 @@ pub fn parse_scene(text: &str, dir: &Path) -> Result<Scene> {
         None => AntiAlias::Adaptive {
             threshold: 0.02,
             max_level: 3,
+            block: 1,
         },
         Some(a) => match a.mode.as_str() {
             "none" => AntiAlias::None,
@@ -303,6 +306,10 @@ pub fn parse_scene(text: &str, dir: &Path) -> Result<Scene> {
             "adaptive" => AntiAlias::Adaptive {
                 threshold: a.threshold.unwrap_or(0.02).max(0.0),
                 max_level: a.max_level.unwrap_or(3).min(8),
+                block: match a.block.unwrap_or(1) {
+                    b @ (1 | 2 | 4) => b,
+                    b => bail!("antialias block = {b} is not supported\n  fix: use 1, 2 or 4"),
+                },
             },
             other => {
                 bail!("antialias mode '{other}' is unknown\n  fix: use adaptive, uniform or none")
@@ -516,6 +523,7 @@ pub fn fig7_scene(model: Model, lighting: Lighting, res: u32) -> Scene {
         antialias: AntiAlias::Adaptive {
             threshold: 0.02,
             max_level: 3,
+            block: 1,
         },
     }
 }
