@@ -10,6 +10,10 @@ use brdfit::simulate::{Grid, simulate};
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::time::Duration;
 
+/// The allocator the `brdfit` binary uses, so the figures are the binary's.
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("fit_ts_mgo_log");
     g.sample_size(10).measurement_time(Duration::from_secs(8));
