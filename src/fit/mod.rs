@@ -831,59 +831,74 @@ fn start_vector(p: &BrdfProblem, var_names: &[String], start: &[(String, f64)]) 
 
 /// The weighted sums of the two-parameter linear problem y ≈ ps s + pd/π of the global
 /// initialisation, y = f_data − ps_fixed s − pd_fixed/π: [Σws², Σws/π, Σw/π², Σwsy, Σwy/π,
-/// Σwy²]. [`LANES`] rows at a time with per-lane sums added in lane order, so it vectorises
-/// (and gives the same sums on every instruction set it is compiled for).
-#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
-fn linear_sums(s: &[f64], fd: &[f64], w: &[f64], ps_fixed: f64, pd_fixed: f64) -> [f64; 6] {
-    linear_sums_body(s, fd, w, ps_fixed, pd_fixed)
-}
-
-/// The body of [`linear_sums`] (a named function: closures in a multiversioned function are
-/// not always inlined, and then do not vectorise).
-#[inline(always)]
-fn linear_sums_body(s: &[f64], fd: &[f64], w: &[f64], ps_fixed: f64, pd_fixed: f64) -> [f64; 6] {
+/// Σwy²]. `wf` holds w·f_data and `k` the sums that do not depend on s, [`basis_free_sums`].
+fn linear_sums(s: &[f64], w: &[f64], wf: &[f64], k: [f64; 3], fixed: (f64, f64)) -> [f64; 6] {
+    let [ss, s1, sf] = basis_sums(s, w, wf);
+    let [w1, f1, ff] = k;
     let d = std::f64::consts::FRAC_1_PI;
-    let yd = pd_fixed * d;
-    // Σws², Σws, Σw, Σwsy, Σwy, Σwy²; the factors 1/π are applied at the end.
-    let mut acc = [[0.0f64; LANES]; 6];
-    let n = s.len().min(fd.len()).min(w.len());
-    let full = n - n % LANES;
-    for i in (0..full).step_by(LANES) {
-        let sv: &[f64; LANES] = s[i..i + LANES].try_into().expect("block");
-        let fv: &[f64; LANES] = fd[i..i + LANES].try_into().expect("block");
-        let wv: &[f64; LANES] = w[i..i + LANES].try_into().expect("block");
-        linear_block(&mut acc, sv, fv, wv, ps_fixed, yd);
-    }
-    // The last block: lanes past the end have weight 0.
-    let (mut sv, mut fv, mut wv) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
-    for (l, i) in (full..n).enumerate() {
-        (sv[l], fv[l], wv[l]) = (s[i], fd[i], w[i]);
-    }
-    linear_block(&mut acc, &sv, &fv, &wv, ps_fixed, yd);
-    let [a, b, c, e, f, g] = acc.map(|a| a.iter().sum::<f64>());
-    [a, b * d, c * (d * d), e, f * d, g]
+    let (a, b) = (fixed.0, fixed.1 * d);
+    // y = f − a s − b, expanded.
+    let sy = sf - a * ss - b * s1;
+    let y1 = f1 - a * s1 - b * w1;
+    let yy = ff + a * a * ss + b * b * w1 - 2.0 * a * sf - 2.0 * b * f1 + 2.0 * a * b * s1;
+    [ss, s1 * d, w1 * d * d, sy, y1 * d, yy]
 }
 
-/// One block of [`LANES`] rows of [`linear_sums`].
-#[inline(always)]
-fn linear_block(
-    acc: &mut [[f64; LANES]; 6],
-    s: &[f64; LANES],
-    fd: &[f64; LANES],
-    w: &[f64; LANES],
-    ps_fixed: f64,
-    yd: f64,
-) {
-    for l in 0..LANES {
-        let y = fd[l] - ps_fixed * s[l] - yd;
-        let (ws, wy) = (w[l] * s[l], w[l] * y);
-        acc[0][l] += ws * s[l];
-        acc[1][l] += ws;
-        acc[2][l] += w[l];
-        acc[3][l] += ws * y;
-        acc[4][l] += wy;
-        acc[5][l] += wy * y;
+/// [Σw, Σwf, Σwf²] of rows with weights w and data f.
+fn basis_free_sums(w: &[f64], f: &[f64]) -> [f64; 3] {
+    let mut k = [0.0; 3];
+    for (w, f) in w.iter().zip(f) {
+        k[0] += w;
+        k[1] += w * f;
+        k[2] += w * f * f;
     }
+    k
+}
+
+/// [Σws², Σws, Σ(wf)s] over the rows. [`LANES`] rows at a time with per-lane sums added in
+/// lane order, so it vectorises (and gives the same sums on every instruction set it is
+/// compiled for).
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn basis_sums(s: &[f64], w: &[f64], wf: &[f64]) -> [f64; 3] {
+    basis_sums_body(s, w, wf)
+}
+
+/// The body of [`basis_sums`] (no closures: in a multiversioned function they are not always
+/// inlined, and then do not vectorise).
+#[inline(always)]
+fn basis_sums_body(s: &[f64], w: &[f64], wf: &[f64]) -> [f64; 3] {
+    let n = s.len().min(w.len()).min(wf.len());
+    let (s, w, wf) = (&s[..n], &w[..n], &wf[..n]);
+    let (mut a0, mut a1, mut a2) = ([0.0f64; LANES], [0.0f64; LANES], [0.0f64; LANES]);
+    let (sc, wc, fc) = (
+        s.chunks_exact(LANES),
+        w.chunks_exact(LANES),
+        wf.chunks_exact(LANES),
+    );
+    // The last block: lanes past the end have weight 0.
+    let mut tail = [[0.0f64; LANES]; 3];
+    tail[0][..sc.remainder().len()].copy_from_slice(sc.remainder());
+    tail[1][..wc.remainder().len()].copy_from_slice(wc.remainder());
+    tail[2][..fc.remainder().len()].copy_from_slice(fc.remainder());
+    let [ts, tw, tf] = &tail;
+    for ((s, w), f) in sc
+        .zip(wc)
+        .zip(fc)
+        .chain(std::iter::once(((&ts[..], &tw[..]), &tf[..])))
+    {
+        // One loop per sum: LLVM then packs lanes, not the sums of one lane.
+        let ws: [f64; LANES] = std::array::from_fn(|l| w[l] * s[l]);
+        for l in 0..LANES {
+            a0[l] += ws[l] * s[l];
+        }
+        for l in 0..LANES {
+            a1[l] += ws[l];
+        }
+        for l in 0..LANES {
+            a2[l] += f[l] * s[l];
+        }
+    }
+    [a0, a1, a2].map(|a| a.iter().sum())
 }
 
 /// Variable projection over a grid of the nonlinear parameters: at each grid point the free
@@ -935,6 +950,14 @@ fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> V
             (fd, w)
         })
         .unzip();
+    let wf: Vec<f64> = wdata.iter().zip(&fdata).map(|(w, f)| w * f).collect();
+    // Per channel, the sums that do not depend on the grid point.
+    let free_sums: Vec<[f64; 3]> = (0..p.layout.len())
+        .map(|c| {
+            let rows = p.starts[c]..p.starts[c + 1];
+            basis_free_sums(&wdata[rows.clone()], &fdata[rows])
+        })
+        .collect();
     use rayon::prelude::*;
     let mut scored: Vec<(f64, Vec<f64>)> = points
         .par_iter()
@@ -975,10 +998,10 @@ fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> V
                 };
                 let [a11, a12, a22, b1, b2, yy] = linear_sums(
                     &basis,
-                    &fdata[rows.clone()],
-                    &wdata[rows],
-                    fixed_ps.unwrap_or(0.0),
-                    fixed_pd.unwrap_or(0.0),
+                    &wdata[rows.clone()],
+                    &wf[rows],
+                    free_sums[c],
+                    (fixed_ps.unwrap_or(0.0), fixed_pd.unwrap_or(0.0)),
                 );
                 let solve1 = |a: f64, b: f64| if a > 0.0 { (b / a).max(0.0) } else { 0.0 };
                 let free_ps = ips.is_some() && fixed_ps.is_none();
@@ -1338,7 +1361,9 @@ mod tests {
                         want[k] += w[i] * t[k];
                     }
                 }
-                let got = linear_sums(&s, &fd, &w, ps, pd);
+                let wf: Vec<f64> = w.iter().zip(&fd).map(|(w, f)| w * f).collect();
+                let k = basis_free_sums(&w, &fd);
+                let got = linear_sums(&s, &w, &wf, k, (ps, pd));
                 for k in 0..6 {
                     let tol = 1e-13 * want[k].abs().max(1e-300);
                     assert!(
