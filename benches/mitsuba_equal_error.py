@@ -131,43 +131,48 @@ def interpolate(curve, err):
     return None
 
 
-with tempfile.TemporaryDirectory() as tmp:
-    ref, t_ref = mitsuba(REF_SPP, 1)
-    own_ref, t_own, _ = brdfit('mode = "uniform"\nsamples = 16', 1, tmp)
-    print(json.dumps(dict(scene=light, threads=THREADS, reference=f"mitsuba {REF_SPP} spp",
-                          reference_seconds=round(t_ref, 2),
-                          rmse_brdfit_16x16_vs_reference=rmse(own_ref, ref),
-                          max_abs_diff=float(np.max(np.abs(own_ref - ref))))))
-    peer = []
-    for spp in [1, 4, 16, 64, 256]:
-        img, t = mitsuba(spp, RUNS)
-        peer.append((t, rmse(img, ref)))
-        print(json.dumps(dict(program="mitsuba llvm_ad_rgb", spp=spp, seconds=round(t, 4),
-                              rmse=peer[-1][1])))
-    ours = []
-    settings = ['mode = "none"'] + [f'mode = "uniform"\nsamples = {n}' for n in (2, 3, 4, 6)] + [
-        f'mode = "adaptive"\nthreshold = {th}\nmax_level = {lv}'
-        for th, lv in [(0.3, 1), (0.2, 1), (0.2, 2), (0.1, 2), (0.1, 3), (0.05, 3), (0.02, 3),
-                       (0.01, 3), (0.005, 4), (0.001, 5)]] + [
-        f'mode = "adaptive"\nthreshold = {th}\nmax_level = {lv}\nblock = {b}'
-        for b in (2, 4)
-        for th, lv in [(0.3, 0), (0.2, 0), (0.1, 0), (0.1, 1), (0.05, 1), (0.05, 2), (0.02, 2),
-                       (0.02, 3)]]
-    for aa in settings:
-        img, t, rpp = brdfit(aa, RUNS, tmp)
-        e = rmse(img, ref)
-        print(json.dumps(dict(program="brdfit", antialias=aa.replace("\n", " "), seconds=round(t, 4),
-                              primary_per_pixel=rpp, rmse=e)))
-        ours.append((t, e))
-    floor = rmse(own_ref, ref)
-    print(f"equal error: brdfit's fastest setting (time interpolated on its time/error front) at the "
-          f"error of each Mitsuba render; errors below ~3x the disagreement of the two converged "
-          f"images ({floor:.1e}) are not resolved by this reference:")
-    for (t, e), spp in zip(peer, [1, 4, 16, 64, 256]):
-        tb = interpolate(ours, e)
-        note = "" if e >= 3 * floor else "  (below the reference's resolution)"
-        if tb is None:
-            print(f"  mitsuba {spp:>3} spp: rmse {e:.2e} in {t:.4f} s; brdfit does not reach it{note}")
-        else:
-            print(f"  mitsuba {spp:>3} spp: rmse {e:.2e} in {t:.4f} s; brdfit {tb:.4f} s; "
-                  f"ratio {t / tb:.2f}x{note}")
+def main():
+    with tempfile.TemporaryDirectory() as tmp:
+        ref, t_ref = mitsuba(REF_SPP, 1)
+        own_ref, t_own, _ = brdfit('mode = "uniform"\nsamples = 16', 1, tmp)
+        print(json.dumps(dict(scene=light, threads=THREADS, reference=f"mitsuba {REF_SPP} spp",
+                              reference_seconds=round(t_ref, 2),
+                              rmse_brdfit_16x16_vs_reference=rmse(own_ref, ref),
+                              max_abs_diff=float(np.max(np.abs(own_ref - ref))))))
+        peer = []
+        for spp in [1, 4, 16, 64, 256]:
+            img, t = mitsuba(spp, RUNS)
+            peer.append((t, rmse(img, ref)))
+            print(json.dumps(dict(program="mitsuba llvm_ad_rgb", spp=spp, seconds=round(t, 4),
+                                  rmse=peer[-1][1])))
+        ours = []
+        settings = ['mode = "none"'] + [f'mode = "uniform"\nsamples = {n}' for n in (2, 3, 4, 6)] + [
+            f'mode = "adaptive"\nthreshold = {th}\nmax_level = {lv}'
+            for th, lv in [(0.3, 1), (0.2, 1), (0.2, 2), (0.1, 2), (0.1, 3), (0.05, 3), (0.02, 3),
+                           (0.01, 3), (0.005, 4), (0.001, 5)]] + [
+            f'mode = "adaptive"\nthreshold = {th}\nmax_level = {lv}\nblock = {b}'
+            for b in (2, 4)
+            for th, lv in [(0.3, 0), (0.2, 0), (0.1, 0), (0.1, 1), (0.05, 1), (0.05, 2), (0.02, 2),
+                           (0.02, 3)]]
+        for aa in settings:
+            img, t, rpp = brdfit(aa, RUNS, tmp)
+            e = rmse(img, ref)
+            print(json.dumps(dict(program="brdfit", antialias=aa.replace("\n", " "), seconds=round(t, 4),
+                                  primary_per_pixel=rpp, rmse=e)))
+            ours.append((t, e))
+        floor = rmse(own_ref, ref)
+        print(f"equal error: brdfit's fastest setting (time interpolated on its time/error front) at the "
+              f"error of each Mitsuba render; errors below ~3x the disagreement of the two converged "
+              f"images ({floor:.1e}) are not resolved by this reference:")
+        for (t, e), spp in zip(peer, [1, 4, 16, 64, 256]):
+            tb = interpolate(ours, e)
+            note = "" if e >= 3 * floor else "  (below the reference's resolution)"
+            if tb is None:
+                print(f"  mitsuba {spp:>3} spp: rmse {e:.2e} in {t:.4f} s; brdfit does not reach it{note}")
+            else:
+                print(f"  mitsuba {spp:>3} spp: rmse {e:.2e} in {t:.4f} s; brdfit {tb:.4f} s; "
+                      f"ratio {t / tb:.2f}x{note}")
+
+
+if __name__ == "__main__":
+    main()
