@@ -831,9 +831,9 @@ fn start_vector(p: &BrdfProblem, var_names: &[String], start: &[(String, f64)]) 
 
 /// The weighted sums of the two-parameter linear problem y ≈ ps s + pd/π of the global
 /// initialisation, y = f_data − ps_fixed s − pd_fixed/π: [Σws², Σws/π, Σw/π², Σwsy, Σwy/π,
-/// Σwy²]. `wf` holds w·f_data and `k` the sums that do not depend on s, [`basis_free_sums`].
-fn linear_sums(s: &[f64], w: &[f64], wf: &[f64], k: [f64; 3], fixed: (f64, f64)) -> [f64; 6] {
-    let [ss, s1, sf] = basis_sums(s, w, wf);
+/// Σwy²], from the basis sums [Σws², Σws, Σ(wf)s] of [`basis_sums`] (or
+/// [`ts_grid_sums`]), the basis-free sums k and the fixed (ps, pd).
+fn combine_sums([ss, s1, sf]: [f64; 3], k: [f64; 3], fixed: (f64, f64)) -> [f64; 6] {
     let [w1, f1, ff] = k;
     let d = std::f64::consts::FRAC_1_PI;
     let (a, b) = (fixed.0, fixed.1 * d);
@@ -842,6 +842,39 @@ fn linear_sums(s: &[f64], w: &[f64], wf: &[f64], k: [f64; 3], fixed: (f64, f64))
     let y1 = f1 - a * s1 - b * w1;
     let yy = ff + a * a * ss + b * b * w1 - 2.0 * a * sf - 2.0 * b * f1 + 2.0 * a * b * s1;
     [ss, s1 * d, w1 * d * d, sy, y1 * d, yy]
+}
+
+/// [`basis_sums`] of Torrance–Sparrow's specular basis s = D(c)·F(n)·G/(π N·L N·E) at every
+/// point of a grid of n (`ns`) and the distribution's c (`cs`), n-major. The basis is a term
+/// in n alone times a term in c alone, so the sums over the rows are three matrix products
+/// (15 × m by m × 11 for the default grids) instead of a pass over the rows per grid point.
+fn ts_grid_sums(
+    rows: &Rows,
+    dist: Distribution,
+    ns: &[f64],
+    cs: &[f64],
+    w: &[f64],
+    wf: &[f64],
+) -> Vec<[f64; 3]> {
+    use nalgebra::DMatrix;
+    let m = rows.len();
+    let pi = std::f64::consts::FRAC_1_PI;
+    // a = F(n)·G/(π N·L N·E) and b = D(c), row by row.
+    let a = DMatrix::from_fn(ns.len(), m, |i, r| {
+        crate::model::fresnel(ns[i], rows.eh[r]) * rows.g_ne[r] * pi / rows.nl[r]
+    });
+    let b = DMatrix::from_fn(cs.len(), m, |j, r| dist.eval(rows.nh[r], cs[j]));
+    let wa2 = DMatrix::from_fn(ns.len(), m, |i, r| w[r] * a[(i, r)] * a[(i, r)]);
+    let wa = DMatrix::from_fn(ns.len(), m, |i, r| w[r] * a[(i, r)]);
+    let wfa = DMatrix::from_fn(ns.len(), m, |i, r| wf[r] * a[(i, r)]);
+    let bt = b.transpose();
+    let ss = wa2 * b.map(|x| x * x).transpose();
+    let s1 = wa * &bt;
+    let sf = wfa * &bt;
+    (0..ns.len())
+        .flat_map(|i| (0..cs.len()).map(move |j| (i, j)))
+        .map(|(i, j)| [ss[(i, j)], s1[(i, j)], sf[(i, j)]])
+        .collect()
 }
 
 /// [Σw, Σwf, Σwf²] of rows with weights w and data f.
@@ -958,96 +991,117 @@ fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> V
             basis_free_sums(&wdata[rows.clone()], &fdata[rows])
         })
         .collect();
-    use rayon::prelude::*;
-    let mut scored: Vec<(f64, Vec<f64>)> = points
-        .par_iter()
-        .filter_map(|pt| {
-            // Natural values of all free variables at this grid point (linear ones solved).
-            let mut theta = vec![f64::NAN; nfree];
-            let mut score = 0.0;
-            for ((k, _), v) in nonlinear.iter().zip(pt) {
-                theta[*k] = *v;
+    // Torrance–Sparrow on one channel with n and c free: every point's sums at once.
+    let separable = (kind == ModelKind::TorranceSparrow
+        && p.layout.len() == 1
+        && ips.is_some()
+        && nonlinear.len() == 2
+        && var_names[nonlinear[0].0] == names[0]
+        && var_names[nonlinear[1].0] == names[1])
+        .then(|| {
+            let (ns, cs) = (&nonlinear[0].1, &nonlinear[1].1);
+            ts_grid_sums(&p.rows, opts.dist, ns, cs, &wdata, &wf)
+        });
+    let score_point = |(index, pt): (usize, &Vec<f64>)| {
+        // Natural values of all free variables at this grid point (linear ones solved).
+        let mut theta = vec![f64::NAN; nfree];
+        let mut score = 0.0;
+        for ((k, _), v) in nonlinear.iter().zip(pt) {
+            theta[*k] = *v;
+        }
+        for c in 0..p.layout.len() {
+            let slots = p.layout[c];
+            let rows = p.starts[c]..p.starts[c + 1];
+            // Model with ps = 1, pd = 0 gives the specular basis; pd's basis is 1/π.
+            let mut vals = [0.0; 4];
+            for j in 0..names.len() {
+                vals[j] = match slots[j] {
+                    Slot::Fixed(v) => v,
+                    Slot::Free(k) => theta[k],
+                };
             }
-            for c in 0..p.layout.len() {
-                let slots = p.layout[c];
-                let rows = p.starts[c]..p.starts[c + 1];
-                // Model with ps = 1, pd = 0 gives the specular basis; pd's basis is 1/π.
-                let mut vals = [0.0; 4];
-                for j in 0..names.len() {
-                    vals[j] = match slots[j] {
-                        Slot::Fixed(v) => v,
-                        Slot::Free(k) => theta[k],
+            if let Some(i) = ips {
+                vals[i] = 1.0;
+            }
+            vals[ipd] = 0.0;
+            let spec_model = full.template.with_params(&vals);
+            let fixed_ps = ips.and_then(|i| match slots[i] {
+                Slot::Fixed(v) => Some(v),
+                _ => None,
+            });
+            let fixed_pd = match slots[ipd] {
+                Slot::Fixed(v) => Some(v),
+                _ => None,
+            };
+            let raw = match &separable {
+                Some(table) => table[index],
+                None => {
+                    let basis = match ips {
+                        Some(_) => problem::brdf_values(&spec_model, &p.rows, rows.clone()),
+                        None => vec![0.0; rows.len()],
                     };
+                    basis_sums(&basis, &wdata[rows.clone()], &wf[rows])
                 }
-                if let Some(i) = ips {
-                    vals[i] = 1.0;
-                }
-                vals[ipd] = 0.0;
-                let spec_model = full.template.with_params(&vals);
-                let fixed_ps = ips.and_then(|i| match slots[i] {
-                    Slot::Fixed(v) => Some(v),
-                    _ => None,
-                });
-                let fixed_pd = match slots[ipd] {
-                    Slot::Fixed(v) => Some(v),
-                    _ => None,
-                };
-                let basis = match ips {
-                    Some(_) => problem::brdf_values(&spec_model, &p.rows, rows.clone()),
-                    None => vec![0.0; rows.len()],
-                };
-                let [a11, a12, a22, b1, b2, yy] = linear_sums(
-                    &basis,
-                    &wdata[rows.clone()],
-                    &wf[rows],
-                    free_sums[c],
-                    (fixed_ps.unwrap_or(0.0), fixed_pd.unwrap_or(0.0)),
-                );
-                let solve1 = |a: f64, b: f64| if a > 0.0 { (b / a).max(0.0) } else { 0.0 };
-                let free_ps = ips.is_some() && fixed_ps.is_none();
-                let free_pd = fixed_pd.is_none();
-                let (ps, pd) = match (free_ps, free_pd) {
-                    (true, true) => {
-                        let det = a11 * a22 - a12 * a12;
-                        let (mut x1, mut x2) = if det > 1e-300 {
-                            ((b1 * a22 - b2 * a12) / det, (a11 * b2 - a12 * b1) / det)
-                        } else {
-                            (-1.0, -1.0)
+            };
+            let [a11, a12, a22, b1, b2, yy] = combine_sums(
+                raw,
+                free_sums[c],
+                (fixed_ps.unwrap_or(0.0), fixed_pd.unwrap_or(0.0)),
+            );
+            let solve1 = |a: f64, b: f64| if a > 0.0 { (b / a).max(0.0) } else { 0.0 };
+            let free_ps = ips.is_some() && fixed_ps.is_none();
+            let free_pd = fixed_pd.is_none();
+            let (ps, pd) = match (free_ps, free_pd) {
+                (true, true) => {
+                    let det = a11 * a22 - a12 * a12;
+                    let (mut x1, mut x2) = if det > 1e-300 {
+                        ((b1 * a22 - b2 * a12) / det, (a11 * b2 - a12 * b1) / det)
+                    } else {
+                        (-1.0, -1.0)
+                    };
+                    if x1 < 0.0 || x2 < 0.0 || !x1.is_finite() || !x2.is_finite() {
+                        // Non-negative least squares with two unknowns: best of the faces.
+                        let c1 = (solve1(a11, b1), 0.0);
+                        let c2 = (0.0, solve1(a22, b2));
+                        let q = |(u, v): (f64, f64)| {
+                            a11 * u * u + 2.0 * a12 * u * v + a22 * v * v - 2.0 * (b1 * u + b2 * v)
                         };
-                        if x1 < 0.0 || x2 < 0.0 || !x1.is_finite() || !x2.is_finite() {
-                            // Non-negative least squares with two unknowns: best of the faces.
-                            let c1 = (solve1(a11, b1), 0.0);
-                            let c2 = (0.0, solve1(a22, b2));
-                            let q = |(u, v): (f64, f64)| {
-                                a11 * u * u + 2.0 * a12 * u * v + a22 * v * v
-                                    - 2.0 * (b1 * u + b2 * v)
-                            };
-                            (x1, x2) = if q(c1) <= q(c2) { c1 } else { c2 };
-                        }
-                        (x1, x2)
+                        (x1, x2) = if q(c1) <= q(c2) { c1 } else { c2 };
                     }
-                    (true, false) => (solve1(a11, b1), 0.0),
-                    (false, true) => (0.0, solve1(a22, b2)),
-                    (false, false) => (0.0, 0.0),
-                };
-                // The linearised cost at the solved (ps, pd): Σ w (y − ps s − pd/π)².
-                score += yy + a11 * ps * ps + 2.0 * a12 * ps * pd + a22 * pd * pd
-                    - 2.0 * (b1 * ps + b2 * pd);
-                if let (Some(i), true) = (ips, free_ps)
-                    && let Slot::Free(k) = slots[i]
-                {
-                    theta[k] = ps;
+                    (x1, x2)
                 }
-                if free_pd && let Slot::Free(k) = slots[ipd] {
-                    theta[k] = pd;
-                }
+                (true, false) => (solve1(a11, b1), 0.0),
+                (false, true) => (0.0, solve1(a22, b2)),
+                (false, false) => (0.0, 0.0),
+            };
+            // The linearised cost at the solved (ps, pd): Σ w (y − ps s − pd/π)².
+            score += yy + a11 * ps * ps + 2.0 * a12 * ps * pd + a22 * pd * pd
+                - 2.0 * (b1 * ps + b2 * pd);
+            if let (Some(i), true) = (ips, free_ps)
+                && let Slot::Free(k) = slots[i]
+            {
+                theta[k] = ps;
             }
-            let x: Vec<f64> = (0..nfree)
-                .map(|k| p.transforms[k].invert(theta[k]))
-                .collect();
-            score.is_finite().then_some((score, x))
-        })
-        .collect();
+            if free_pd && let Slot::Free(k) = slots[ipd] {
+                theta[k] = pd;
+            }
+        }
+        let x: Vec<f64> = (0..nfree)
+            .map(|k| p.transforms[k].invert(theta[k]))
+            .collect();
+        score.is_finite().then_some((score, x))
+    };
+    // With the sums tabulated a point costs a 2 × 2 solve: no thread pool then.
+    use rayon::prelude::*;
+    let mut scored: Vec<(f64, Vec<f64>)> = if separable.is_some() {
+        points.iter().enumerate().filter_map(score_point).collect()
+    } else {
+        points
+            .par_iter()
+            .enumerate()
+            .filter_map(score_point)
+            .collect()
+    };
     scored.sort_by(|a, b| a.0.total_cmp(&b.0));
     // Keep three candidates, skipping near-duplicates of ones already kept.
     let mut out: Vec<Vec<f64>> = Vec::new();
@@ -1339,6 +1393,13 @@ pub fn format_ranking(fits: &[FitResult]) -> String {
 mod tests {
     use super::*;
 
+    /// The weighted sums of the two-parameter linear problem y ≈ ps s + pd/π of the global
+    /// initialisation, y = f_data − ps_fixed s − pd_fixed/π: [Σws², Σws/π, Σw/π², Σwsy, Σwy/π,
+    /// Σwy²] of a basis s; `wf` holds w·f_data and `k` the sums free of s ([`basis_free_sums`]).
+    fn linear_sums(s: &[f64], w: &[f64], wf: &[f64], k: [f64; 3], fixed: (f64, f64)) -> [f64; 6] {
+        combine_sums(basis_sums(s, w, wf), k, fixed)
+    }
+
     /// The lane sums of the global initialisation equal plain sums written out here, for
     /// lengths with and without a partial last block and with fixed ps and pd.
     #[test]
@@ -1370,6 +1431,60 @@ mod tests {
                         (got[k] - want[k]).abs() <= tol,
                         "m={m} k={k}: {got:?} vs {want:?}"
                     );
+                }
+            }
+        }
+    }
+
+    /// The tabulated sums of Torrance–Sparrow's separable basis equal, point by point, the
+    /// sums of the basis evaluated through the model (problem::brdf_values), for D3 and D1.
+    #[test]
+    fn separable_grid_sums_match_the_model_point_by_point() {
+        use crate::model::Geometry;
+        use problem::Row;
+        let mut rows = Vec::new();
+        for k in 0..300 {
+            let x = k as f64;
+            let g = Geometry::from_angles(
+                (0.37 * x).sin().abs() * 1.4,
+                0.0,
+                (0.71 * x).cos().abs() * 1.4,
+                2.0 * (0.13 * x).sin() * std::f64::consts::PI,
+            );
+            if g.visible() {
+                rows.push(Row {
+                    g,
+                    cos_i: g.nl,
+                    target: 0.0,
+                    sw: 1.0,
+                });
+            }
+        }
+        let rows = Rows::from(rows);
+        let m = rows.len();
+        let w: Vec<f64> = (0..m).map(|i| 0.5 + (i % 7) as f64 / 7.0).collect();
+        let wf: Vec<f64> = (0..m).map(|i| w[i] * (0.2 + (i % 5) as f64)).collect();
+        for dist in [Distribution::D3, Distribution::D1] {
+            let cname = ModelKind::TorranceSparrow.param_names(dist)[1];
+            let (ns, cs) = (init_grid("n", dist), init_grid(cname, dist));
+            let table = ts_grid_sums(&rows, dist, &ns, &cs, &w, &wf);
+            assert_eq!(table.len(), ns.len() * cs.len());
+            for (i, n) in ns.iter().enumerate() {
+                for (j, c) in cs.iter().enumerate() {
+                    let model =
+                        Model::new(ModelKind::TorranceSparrow, dist, &[*n, *c, 1.0, 0.0]).unwrap();
+                    let basis = problem::brdf_values(&model, &rows, 0..m);
+                    let want = basis_sums(&basis, &w, &wf);
+                    let got = table[i * cs.len() + j];
+                    for k in 0..3 {
+                        let tol = 1e-10 * want[k].abs().max(1e-300);
+                        assert!(
+                            (got[k] - want[k]).abs() <= tol,
+                            "{dist:?} n={n} c={c} sum {k}: {} vs {}",
+                            got[k],
+                            want[k]
+                        );
+                    }
                 }
             }
         }
