@@ -623,5 +623,13 @@ fn fit_repeat_gives_the_same_fit() {
     assert_eq!(a["params"], b["params"]);
     assert_eq!(a["cost"], b["cost"]);
     assert!(b["seconds"].as_f64().unwrap() > 0.0);
+    // The geometry pass is part of the fit's time (each the median of its own column).
+    for v in [&a, &b] {
+        let (t, g) = (
+            v["seconds"].as_f64().unwrap(),
+            v["geometry_seconds"].as_f64().unwrap(),
+        );
+        assert!(g > 0.0 && g < t, "geometry {g} s of {t} s");
+    }
     assert_eq!(brdfit(&["fit", f, "--repeat", "0"]).status.code(), Some(2));
 }
