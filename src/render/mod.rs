@@ -823,9 +823,10 @@ impl Scene {
                 threshold,
                 max_level,
                 block,
-            } if block > 1 => {
-                // Blocks of B × B pixels with corners on a lattice of spacing B, in bands of
-                // rows; a band recomputes the corner row above it.
+            } => {
+                // Blocks of B × B pixels with corners on a lattice of spacing B (B = 1: Whitted's
+                // pixel corners), in bands of rows swept with two rows of corner samples shared
+                // by neighbouring blocks; a band recomputes the corner row above it.
                 const BAND: usize = 32;
                 let (wu, hu, b) = (w.max(1) as usize, h.max(1) as usize, block as usize);
                 let nb = wu.div_ceil(b);
@@ -868,43 +869,6 @@ impl Scene {
                             for _ in 0..b.min(rows - by) {
                                 progress();
                             }
-                        }
-                        c.add_to(&total);
-                    });
-            }
-            AntiAlias::Adaptive {
-                threshold,
-                max_level,
-                ..
-            } => {
-                // Bands of rows, each swept with two rows of corner samples shared by
-                // neighbouring pixels (a band recomputes the corner row above it: 1 row in 32).
-                const BAND: usize = 32;
-                let wu = w.max(1) as usize;
-                let corner_row = |y: usize, c: &Counters| -> Vec<Sample> {
-                    (0..=wu)
-                        .map(|x| self.sample(cam, x as f64, y as f64, footprint, c))
-                        .collect()
-                };
-                pixels
-                    .par_chunks_mut(wu * BAND)
-                    .enumerate()
-                    .for_each(|(b, band)| {
-                        let c = Counters::default();
-                        let mut top = corner_row(b * BAND, &c);
-                        for (k, row) in band.chunks_mut(wu).enumerate() {
-                            let yi = b * BAND + k;
-                            let bottom = corner_row(yi + 1, &c);
-                            for (xi, px) in row.iter_mut().enumerate() {
-                                let q = [top[xi], top[xi + 1], bottom[xi], bottom[xi + 1]];
-                                let v = self.adaptive(
-                                    cam, xi as f64, yi as f64, 1.0, q, 0, threshold, max_level,
-                                    footprint, &c,
-                                );
-                                *px = [v.x as f32, v.y as f32, v.z as f32];
-                            }
-                            top = bottom;
-                            progress();
                         }
                         c.add_to(&total);
                     });
