@@ -1499,6 +1499,7 @@ fn run_render(
                 threshold: 0.02,
                 max_level: 3,
                 block: 1,
+                jitter: false,
             },
         );
         for (name, img) in &imgs {

@@ -167,6 +167,7 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
             threshold: 0.02,
             max_level: 3,
             block: 1,
+            jitter: false,
         },
     );
     write_bytes_atomic(&root.join("blinn/fig7.png"), &render::contact_sheet(&imgs)?)?;

@@ -571,6 +571,7 @@ pub fn render_study_scenes(scenes: &[crate::render::Scene]) -> Vec<RenderRow> {
                 threshold: th,
                 max_level: 4,
                 block: 1,
+                jitter: false,
             },
         ));
     }

@@ -339,6 +339,7 @@ fn adaptive_antialiasing_traces_fewer_rays_and_renders_deterministically() {
         threshold: 0.02,
         max_level: 3,
         block: 1,
+        jitter: false,
     };
     let a = s.render(&|| {});
     let b = s.render(&|| {});
@@ -473,6 +474,7 @@ fn block_interpolation_matches_centre_samples_on_a_smooth_image() {
             threshold: 1.0,
             max_level: 0,
             block,
+            jitter: false,
         };
         let img = s.render(&|| {});
         assert!(
@@ -518,6 +520,7 @@ fn block_mode_at_threshold_zero_is_whitteds_pixel_corner_scheme() {
         threshold: 0.0,
         max_level: 2,
         block,
+        jitter: false,
     };
     s.antialias = aa(1);
     let whitted = s.render(&|| {});
@@ -561,6 +564,7 @@ fn block_mode_renders_the_bundled_scene_close_to_a_supersampled_one_with_fewer_r
         threshold: 0.05,
         max_level: 1,
         block: 2,
+        jitter: false,
     };
     let block = s.render(&|| {});
     let (e_none, e_block) = (
@@ -591,4 +595,228 @@ fn block_sizes_other_than_1_2_4_are_refused_with_the_fix() {
         "{msg}"
     );
     assert!(parse_scene(GRADIENT, Path::new(".")).is_ok());
+}
+
+/// A floor seen straight down (image plane parallel to it), so pixel (x, y) covers the floor
+/// square [ex − h + x·p, … + p] × [ez − h·H/W + y·p, … + p] with p = 2·h/W (field of view
+/// 90°); `extra` adds lights, materials and objects.
+fn top_down(
+    eye: (f64, f64, f64),
+    (w, h): (u32, u32),
+    ambient: f64,
+    aa: &str,
+    extra: &str,
+) -> String {
+    format!(
+        r#"
+max_depth = 3
+ambient = {ambient}
+[camera]
+eye = [{x}, {y}, {z}]
+target = [{x}, 0.0, {z}]
+up = [0.0, 0.0, -1.0]
+fov = 90.0
+width = {w}
+height = {h}
+[antialias]
+{aa}
+{extra}
+"#,
+        x = eye.0,
+        y = eye.1,
+        z = eye.2
+    )
+}
+
+/// Mean albedo of a checker (1-unit squares, `c0` where ⌊x⌋ + ⌊z⌋ is even) over the floor
+/// rectangle [x0, x1] × [z0, z1], from the overlap of each square.
+fn checker_mean(c0: f64, c1: f64, (x0, x1): (f64, f64), (z0, z1): (f64, f64)) -> f64 {
+    let mut sum = 0.0;
+    for i in (x0.floor() as i64)..=(x1.floor() as i64) {
+        for j in (z0.floor() as i64)..=(z1.floor() as i64) {
+            let lx = (x1.min(i as f64 + 1.0) - x0.max(i as f64)).max(0.0);
+            let lz = (z1.min(j as f64 + 1.0) - z0.max(j as f64)).max(0.0);
+            sum += lx * lz * if (i + j).rem_euclid(2) == 0 { c0 } else { c1 };
+        }
+    }
+    sum / ((x1 - x0) * (z1 - z0))
+}
+
+#[test]
+fn corners_on_two_squares_of_one_colour_subdivide_directly_and_in_a_mirror() {
+    // A pixel 2 units wide over a checker corner, [−0.9, 1.1]²: its four corners fall on four
+    // different squares that all have colour 0.2, while half the pixel is 0.8. The corner
+    // intensities agree, so only the ray-tree test (different squares) can subdivide it; the
+    // same must hold when the checker is seen in a mirror, where the primary hits agree too.
+    let aa = "mode = \"adaptive\"\nthreshold = 0.02\nmax_level = 4";
+    let expect = checker_mean(0.2, 0.8, (-0.9, 1.1), (-0.9, 1.1));
+    assert!((expect - 0.5).abs() < 1e-12);
+    // Directly: a directional light of irradiance π straight down, so radiance = albedo.
+    let direct = top_down(
+        (0.1, 5.0, 0.1),
+        (5, 5),
+        0.0,
+        aa,
+        r#"
+[[lights]]
+kind = "directional"
+direction = [0.0, 1.0, 0.0]
+intensity = 3.141592653589793
+[materials.floor]
+model = "lambert"
+params = { pd = 1.0 }
+checker = { size = 1.0, color0 = [0.2, 0.2, 0.2], color1 = [0.8, 0.8, 0.8] }
+[[objects]]
+kind = "plane"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+size = 100.0
+material = "floor"
+"#,
+    );
+    // In a mirror: a black mirror floor (ks = 1) under a checker ceiling at height 10 lit by
+    // ambient 1; the ceiling is 5 + 10 = 15 units from the eye along the reflected rays, so
+    // with a 15-pixel image each pixel again covers 2 × 2 units, mirrored in y only.
+    let mirror = top_down(
+        (0.1, 5.0, 0.1),
+        (15, 15),
+        1.0,
+        aa,
+        r#"
+[materials.mirror]
+model = "lambert"
+params = { pd = 0.0 }
+ks = 1.0
+[materials.ceiling]
+model = "lambert"
+params = { pd = 1.0 }
+checker = { size = 1.0, color0 = [0.2, 0.2, 0.2], color1 = [0.8, 0.8, 0.8] }
+[[objects]]
+kind = "plane"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+size = 100.0
+material = "mirror"
+[[objects]]
+kind = "plane"
+point = [0.0, 10.0, 0.0]
+normal = [0.0, -1.0, 0.0]
+size = 100.0
+material = "ceiling"
+"#,
+    );
+    for (name, text, centre) in [("direct", direct, 2), ("mirror", mirror, 7)] {
+        let img = scene(&text).render(&|| {});
+        let got = lum(img.at(centre, centre));
+        assert!(
+            (got - expect).abs() < 0.03,
+            "{name}: centre pixel {got}, area mean {expect}"
+        );
+    }
+}
+
+#[test]
+fn over_range_corners_still_subdivide() {
+    // A white floor 0.5 below a point light of intensity 10: every corner of the pixel
+    // [0, 1]² is brighter than 1 (so a test on clamped display values sees four equal
+    // corners), the radiance peaks inside it, and the pixel's true value is the light's
+    // solid angle over the square: mean L = (I/π)·Ω/A, Ω = Σ ± atan(x z / (h √(x²+z²+h²))).
+    let (lx, lz, h, i) = (0.6, 0.45, 0.5, 10.0);
+    let text = top_down(
+        (0.0, 5.0, 0.0),
+        (10, 10),
+        0.0,
+        "mode = \"adaptive\"\nthreshold = 0.02\nmax_level = 4",
+        &format!(
+            r#"
+[[lights]]
+kind = "point"
+position = [{lx}, {h}, {lz}]
+intensity = {i}
+[materials.floor]
+model = "lambert"
+params = {{ pd = 1.0 }}
+[[objects]]
+kind = "plane"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+size = 100.0
+material = "floor"
+"#
+        ),
+    );
+    let f = |x: f64, z: f64| (x * z / (h * (x * x + z * z + h * h).sqrt())).atan();
+    let (x0, x1, z0, z1) = (-lx, 1.0 - lx, -lz, 1.0 - lz);
+    let omega = f(x1, z1) - f(x0, z1) - f(x1, z0) + f(x0, z0);
+    let expect = i / std::f64::consts::PI * omega;
+    let corner = |x: f64, z: f64| i * h / (x * x + z * z + h * h).powf(1.5) / std::f64::consts::PI;
+    let corners = [
+        corner(x0, z0),
+        corner(x1, z0),
+        corner(x0, z1),
+        corner(x1, z1),
+    ];
+    assert!(corners.iter().all(|&c| c > 1.0), "{corners:?}");
+    let img = scene(&text).render(&|| {});
+    let got = lum(img.at(5, 5));
+    assert!(
+        (got / expect - 1.0).abs() < 0.02,
+        "pixel {got}, area mean {expect}, corner mean {}",
+        corners.iter().sum::<f64>() / 4.0
+    );
+}
+
+#[test]
+fn jittered_samples_remove_the_regular_grids_bias_on_an_aligned_edge() {
+    // A checker edge (0 above, 1 below, 100-unit squares) along a pixel row, crossing every
+    // pixel of row 32 at 30 % of its height: the true value there is 0.3. A regular 4 × 4 grid
+    // sees it at 1/4 in every pixel, and Whitted's corners on a 4 × 4 lattice at 3/8: errors
+    // of one sign all along the row. One sample at a fixed random point per stratum, or per
+    // lattice square, is right on average: the row mean must be within 0.02 (the stratified
+    // row mean's spread is ≈ 0.006), and the regular ones must not be.
+    let p = 10.0 / 64.0;
+    let eye = (50.0, 5.0, 5.0 - (32.0 + 0.3) * p);
+    let extra = r#"
+[[lights]]
+kind = "directional"
+direction = [0.0, 1.0, 0.0]
+intensity = 3.141592653589793
+[materials.floor]
+model = "lambert"
+params = { pd = 1.0 }
+checker = { size = 100.0, color0 = [0.0, 0.0, 0.0], color1 = [1.0, 1.0, 1.0] }
+[[objects]]
+kind = "plane"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+size = 1000.0
+material = "floor"
+"#;
+    let row_error = |aa: &str| {
+        let s = scene(&top_down(eye, (64, 64), 0.0, aa, extra));
+        let img = s.render(&|| {});
+        assert_eq!(
+            img.pixels,
+            s.render(&|| {}).pixels,
+            "{aa}: not deterministic"
+        );
+        let above = lum(img.at(10, 31)) + lum(img.at(10, 33));
+        assert!((above - 1.0).abs() < 1e-9, "{aa}: rows 31/33 {above}");
+        (0..64).map(|x| lum(img.at(x, 32)) - 0.3).sum::<f64>() / 64.0
+    };
+    for (aa, jittered) in [
+        ("mode = \"uniform\"\nsamples = 4", false),
+        ("mode = \"stratified\"\nsamples = 4", true),
+        (
+            "mode = \"adaptive\"\nthreshold = 0.02\nmax_level = 2",
+            false,
+        ),
+        (
+            "mode = \"adaptive\"\nthreshold = 0.02\nmax_level = 2\njitter = true",
+            true,
+        ),
+    ] {
+        let e = row_error(aa);
+        assert_eq!(e.abs() < 0.02, jittered, "{aa}: row mean error {e}");
+    }
 }

@@ -370,9 +370,18 @@ pub struct Checker {
 }
 
 impl Checker {
+    /// Indices (i, j) of the square holding texture coordinates (u, v).
+    pub fn cell(&self, (u, v): (f64, f64)) -> (i64, i64) {
+        (
+            (u / self.size).floor() as i64,
+            (v / self.size).floor() as i64,
+        )
+    }
+
     /// Colour at texture coordinates (u, v).
-    pub fn at(&self, (u, v): (f64, f64)) -> DVec3 {
-        let k = (u / self.size).floor() as i64 + (v / self.size).floor() as i64;
+    pub fn at(&self, uv: (f64, f64)) -> DVec3 {
+        let (i, j) = self.cell(uv);
+        let k = i + j;
         if k.rem_euclid(2) == 0 {
             self.color0
         } else {
@@ -503,6 +512,10 @@ pub enum AntiAlias {
     None,
     /// n × n regular samples per pixel, averaged (box filter).
     Uniform(u32),
+    /// n × n strata per pixel with one sample at a fixed random point in each (jittered
+    /// stratified sampling, Cook 1986, "Stochastic sampling in computer graphics"), averaged:
+    /// the regular grid's error on edges nearly aligned with it becomes noise that falls faster.
+    Stratified(u32),
     /// Whitted's adaptive corner sampling: subdivide where corners differ by more than
     /// `threshold` (in display units, √ of the linear value) or hit different objects, up to
     /// `max_level`.
@@ -517,6 +530,11 @@ pub enum AntiAlias {
         /// bilinear interpolation (each pixel gets the patch's mean over its area, the value at
         /// its centre), so smooth regions cost fewer than one ray per pixel.
         block: u32,
+        /// Trace each lattice point at a fixed random point of the finest square (side
+        /// 2^-max_level pixel) centred on it instead of at the point itself (Cook 1986): at the
+        /// finest level the corner average becomes a stratified estimate, and a grid-aligned edge
+        /// no longer errs the same way in every square.
+        jitter: bool,
     },
 }
 
@@ -622,13 +640,16 @@ pub fn refract(d: DVec3, n: DVec3, eta: f64) -> Option<DVec3> {
     Some((eta * d + (eta * cos_i - cos_t) * n).normalize())
 }
 
-/// One traced sample: radiance and the object hit first (for the anti-aliasing test).
+/// One traced sample: radiance and what the anti-aliasing test compares.
 #[derive(Clone, Copy, Debug, Default)]
 struct Sample {
     color: DVec3,
-    /// Display-like value (gamma 2: √ of the clamped linear value) for the subdivision test.
+    /// Display-like value (gamma 2: √ of the linear value) for the subdivision test. Not
+    /// clamped at 1: differences among over-range values (a highlight, its reflection) are
+    /// real in the linear EXR and in any error measured on it.
     display: DVec3,
-    object: i32,
+    /// What the ray tree hit (objects, checker squares, shadowing lights), hashed.
+    key: u64,
     near_miss: bool,
 }
 
@@ -651,9 +672,17 @@ impl Scene {
 
     /// Radiance along `r` (Whitted's eq. 2), recursing up to `max_depth`.
     pub fn trace(&self, r: &Ray, depth: u32, weight: f64, c: &Counters) -> DVec3 {
+        self.trace_key(r, depth, weight, c, &mut 0)
+    }
+
+    /// [`Scene::trace`], folding what the ray tree hit into `key`.
+    fn trace_key(&self, r: &Ray, depth: u32, weight: f64, c: &Counters, key: &mut u64) -> DVec3 {
         match self.intersect(r, f64::INFINITY) {
-            Some(hit) => self.shade(r, hit, depth, weight, c),
-            None => self.background,
+            Some(hit) => self.shade(r, hit, depth, weight, c, key),
+            None => {
+                *key = mix(*key, MISSED);
+                self.background
+            }
         }
     }
 
@@ -665,8 +694,10 @@ impl Scene {
         depth: u32,
         weight: f64,
         c: &Counters,
+        key: &mut u64,
     ) -> DVec3 {
         let obj = &self.objects[oi];
+        *key = mix(*key, oi as u64);
         let m = &self.materials[obj.material];
         let p = r.o + t * r.d;
         // Texture coordinates only where a texture reads them.
@@ -680,10 +711,14 @@ impl Scene {
         let e = -r.d;
         let scale = p.abs().max_element().max(1.0);
         let eps = 1e-7 * scale;
-        let albedo = m.checker.map_or(m.color, |ch| ch.at(uv) * m.color);
+        let albedo = m.checker.map_or(m.color, |ch| {
+            let (i, j) = ch.cell(uv);
+            *key = mix(mix(*key, i as u64), j as u64);
+            ch.at(uv) * m.color
+        });
         let pd = m.pd();
         let mut out = self.ambient * albedo * pd;
-        for light in &self.lights {
+        for (li, light) in self.lights.iter().enumerate() {
             let (ldir, dist, irr) = match light {
                 Light::Point {
                     position,
@@ -709,6 +744,7 @@ impl Scene {
                 },
                 dist - 2.0 * eps,
             ) {
+                *key = mix(*key, SHADOWED | li as u64);
                 continue;
             }
             // A Lambert surface needs only N·L; the other models the whole geometry.
@@ -724,7 +760,8 @@ impl Scene {
             if m.ks > 0.0 && weight * m.ks >= self.min_weight {
                 Counters::bump(&c.reflected);
                 let d = reflect(r.d, n);
-                out += m.ks * self.trace(&Ray { o: p + eps * n, d }, depth + 1, weight * m.ks, c);
+                out += m.ks
+                    * self.trace_key(&Ray { o: p + eps * n, d }, depth + 1, weight * m.ks, c, key);
             }
             if m.kt > 0.0 && weight * m.kt >= self.min_weight {
                 let eta = if inside { m.ior } else { 1.0 / m.ior };
@@ -732,14 +769,26 @@ impl Scene {
                     Some(d) => {
                         Counters::bump(&c.refracted);
                         out += m.kt
-                            * self.trace(&Ray { o: p - eps * n, d }, depth + 1, weight * m.kt, c);
+                            * self.trace_key(
+                                &Ray { o: p - eps * n, d },
+                                depth + 1,
+                                weight * m.kt,
+                                c,
+                                key,
+                            );
                     }
                     None => {
                         // Total internal reflection: the transmitted share is reflected.
                         Counters::bump(&c.reflected);
                         let d = reflect(r.d, n);
                         out += m.kt
-                            * self.trace(&Ray { o: p + eps * n, d }, depth + 1, weight * m.kt, c);
+                            * self.trace_key(
+                                &Ray { o: p + eps * n, d },
+                                depth + 1,
+                                weight * m.kt,
+                                c,
+                                key,
+                            );
                     }
                 }
             }
@@ -754,9 +803,27 @@ impl Scene {
         self.trace(&cam.ray(x, y), 0, 1.0, c)
     }
 
-    /// A corner sample of the adaptive mode: radiance plus what the subdivision test reads.
-    fn sample(&self, cam: &CameraFrame, x: f64, y: f64, footprint: f64, c: &Counters) -> Sample {
+    /// A corner sample of the adaptive mode at lattice point (x, y) of a square of side
+    /// `side` pixels: radiance plus what the subdivision test reads.
+    fn sample(
+        &self,
+        cam: &CameraFrame,
+        (x, y): (f64, f64),
+        side: f64,
+        sub: &Subdivision,
+        c: &Counters,
+    ) -> Sample {
         Counters::bump(&c.primary);
+        let footprint = sub.footprint * side;
+        let (x, y) = if sub.jitter_cells > 0.0 {
+            // Lattice coordinates are multiples of 2^-max_level: exact integers here.
+            let k = sub.jitter_cells;
+            let (i, j) = ((x * k).round(), (y * k).round());
+            let (u, v) = jitter(i as u64, j as u64);
+            ((i + u - 0.5) / k, (j + v - 0.5) / k)
+        } else {
+            (x, y)
+        };
         let r = cam.ray(x, y);
         let hit = self.intersect(&r, f64::INFINITY);
         // Whitted's small-object test: an object whose bounding sphere is smaller than the
@@ -773,14 +840,15 @@ impl Scene {
             t > 0.0 && rad < r_min && (v - t * r.d).length() < r_min
         });
         // The primary hit is already known: shade it without intersecting again.
+        let mut key = 0;
         let color = match hit {
-            Some(h) => self.shade(&r, h, 0, 1.0, c),
+            Some(h) => self.shade(&r, h, 0, 1.0, c, &mut key),
             None => self.background,
         };
         Sample {
             color,
-            display: color.clamp(DVec3::ZERO, DVec3::ONE).map(f64::sqrt),
-            object: hit.map_or(-1, |h| h.0 as i32),
+            display: color.max(DVec3::ZERO).map(f64::sqrt),
+            key,
             near_miss,
         }
     }
@@ -795,10 +863,11 @@ impl Scene {
         // join), one rayon task per row, ray counts kept per row.
         let mut pixels = vec![[0.0f32; 3]; (w as usize) * (h as usize)];
         match self.antialias {
-            AntiAlias::None | AntiAlias::Uniform(_) => {
-                let n = match self.antialias {
-                    AntiAlias::Uniform(n) => n.max(1),
-                    _ => 1,
+            AntiAlias::None | AntiAlias::Uniform(_) | AntiAlias::Stratified(_) => {
+                let (n, jittered) = match self.antialias {
+                    AntiAlias::Uniform(n) => (n.max(1), false),
+                    AntiAlias::Stratified(n) => (n.max(1), true),
+                    _ => (1, false),
                 };
                 let rows = pixels.par_chunks_mut(w.max(1) as usize).enumerate();
                 rows.for_each(|(y, row)| {
@@ -807,8 +876,14 @@ impl Scene {
                         let mut sum = DVec3::ZERO;
                         for j in 0..n {
                             for i in 0..n {
-                                let sx = x as f64 + (i as f64 + 0.5) / n as f64;
-                                let sy = y as f64 + (j as f64 + 0.5) / n as f64;
+                                let (ju, jv) = if jittered {
+                                    let n = n as u64;
+                                    jitter(x as u64 * n + i as u64, y as u64 * n + j as u64)
+                                } else {
+                                    (0.5, 0.5)
+                                };
+                                let sx = x as f64 + (i as f64 + ju) / n as f64;
+                                let sy = y as f64 + (j as f64 + jv) / n as f64;
                                 sum += self.radiance(cam, sx, sy, &c);
                             }
                         }
@@ -823,7 +898,18 @@ impl Scene {
                 threshold,
                 max_level,
                 block,
+                jitter,
             } => {
+                let sub = &Subdivision {
+                    threshold,
+                    max_level,
+                    footprint,
+                    jitter_cells: if jitter {
+                        (1u64 << max_level) as f64
+                    } else {
+                        0.0
+                    },
+                };
                 // Blocks of B × B pixels with corners on a lattice of spacing B (B = 1: Whitted's
                 // pixel corners), in bands of rows swept with two rows of corner samples shared
                 // by neighbouring blocks; a band recomputes the corner row above it.
@@ -832,10 +918,7 @@ impl Scene {
                 let nb = wu.div_ceil(b);
                 let corner_row = |y: usize, c: &Counters| -> Vec<Sample> {
                     (0..=nb)
-                        .map(|k| {
-                            let fp = footprint * b as f64;
-                            self.sample(cam, (k * b) as f64, y as f64, fp, c)
-                        })
+                        .map(|k| self.sample(cam, ((k * b) as f64, y as f64), b as f64, sub, c))
                         .collect()
                 };
                 pixels
@@ -856,14 +939,7 @@ impl Scene {
                                     width: wu,
                                     height: hu.min(y0 + rows),
                                 };
-                                self.block(
-                                    cam,
-                                    (k * b, y0 + by, b),
-                                    q,
-                                    (threshold, max_level, footprint),
-                                    area,
-                                    &c,
-                                );
+                                self.block(cam, (k * b, y0 + by, b), q, sub, area, &c);
                             }
                             top = bottom;
                             for _ in 0..b.min(rows - by) {
@@ -884,44 +960,26 @@ impl Scene {
 
     /// Whitted's recursive subdivision of the square at (x, y) of side `s` with corner samples
     /// q = [top-left, top-right, bottom-left, bottom-right].
-    #[allow(clippy::too_many_arguments)]
     fn adaptive(
         &self,
         cam: &CameraFrame,
-        x: f64,
-        y: f64,
-        s: f64,
+        (x, y, s): (f64, f64, f64),
         q: [Sample; 4],
         level: u32,
-        threshold: f64,
-        max_level: u32,
-        footprint: f64,
+        sub: &Subdivision,
         c: &Counters,
     ) -> DVec3 {
-        if !corners_differ(&q, threshold) || level >= max_level {
+        if !corners_differ(&q, sub.threshold) || level >= sub.max_level {
             return (q[0].color + q[1].color + q[2].color + q[3].color) * 0.25;
         }
         let h = 0.5 * s;
-        let m = |dx: f64, dy: f64| self.sample(cam, x + dx, y + dy, footprint * s, c);
+        let m = |dx: f64, dy: f64| self.sample(cam, (x + dx, y + dy), s, sub, c);
         let (top, left, mid, right, bottom) = (m(h, 0.0), m(0.0, h), m(h, h), m(s, h), m(h, s));
-        let sub = |xx, yy, qq| {
-            self.adaptive(
-                cam,
-                xx,
-                yy,
-                h,
-                qq,
-                level + 1,
-                threshold,
-                max_level,
-                footprint,
-                c,
-            )
-        };
-        0.25 * (sub(x, y, [q[0], top, left, mid])
-            + sub(x + h, y, [top, q[1], mid, right])
-            + sub(x, y + h, [left, mid, q[2], bottom])
-            + sub(x + h, y + h, [mid, right, bottom, q[3]]))
+        let quarter = |xx, yy, qq| self.adaptive(cam, (xx, yy, h), qq, level + 1, sub, c);
+        0.25 * (quarter(x, y, [q[0], top, left, mid])
+            + quarter(x + h, y, [top, q[1], mid, right])
+            + quarter(x, y + h, [left, mid, q[2], bottom])
+            + quarter(x + h, y + h, [mid, right, bottom, q[3]]))
     }
 
     /// A block of `s` × `s` pixels at pixel (x, y) with corner samples q (as in
@@ -933,7 +991,7 @@ impl Scene {
         cam: &CameraFrame,
         (x, y, s): (usize, usize, usize),
         q: [Sample; 4],
-        (threshold, max_level, footprint): (f64, u32, f64),
+        sub: &Subdivision,
         area: BlockArea,
         c: &Counters,
     ) {
@@ -945,14 +1003,12 @@ impl Scene {
         } = area;
         if s == 1 {
             if x < width && y < height {
-                let v = self.adaptive(
-                    cam, x as f64, y as f64, 1.0, q, 0, threshold, max_level, footprint, c,
-                );
+                let v = self.adaptive(cam, (x as f64, y as f64, 1.0), q, 0, sub, c);
                 out[(y - y0) * width + x] = [v.x as f32, v.y as f32, v.z as f32];
             }
             return;
         }
-        if !corners_differ(&q, threshold) {
+        if !corners_differ(&q, sub.threshold) {
             let sf = s as f64;
             for j in y..(y + s).min(height) {
                 let v = (j - y) as f64 / sf + 0.5 / sf;
@@ -966,10 +1022,10 @@ impl Scene {
             return;
         }
         let h = s / 2;
-        let fp = footprint * h as f64;
-        let m = |dx: usize, dy: usize| self.sample(cam, (x + dx) as f64, (y + dy) as f64, fp, c);
+        let m = |dx: usize, dy: usize| {
+            self.sample(cam, ((x + dx) as f64, (y + dy) as f64), h as f64, sub, c)
+        };
         let (top, left, mid, right, bottom) = (m(h, 0), m(0, h), m(h, h), m(s, h), m(h, s));
-        let opts = (threshold, max_level, footprint);
         for (dx, dy, qq) in [
             (0, 0, [q[0], top, left, mid]),
             (h, 0, [top, q[1], mid, right]),
@@ -982,17 +1038,35 @@ impl Scene {
                 width,
                 height,
             };
-            self.block(cam, (x + dx, y + dy, h), qq, opts, area, c);
+            self.block(cam, (x + dx, y + dy, h), qq, sub, area, c);
         }
     }
 }
 
+/// Ray-tree key tags: a ray that left the scene, a light blocked (ORed with its index).
+const MISSED: u64 = u64::MAX;
+const SHADOWED: u64 = 1 << 63;
+
+/// The adaptive mode's settings as its recursion reads them.
+#[derive(Clone, Copy, Debug)]
+struct Subdivision {
+    threshold: f64,
+    max_level: u32,
+    /// Angle subtended by one pixel (tan); the small-object test scales it by the sample spacing.
+    footprint: f64,
+    /// Finest-lattice points per pixel (2^max_level) when samples are jittered, else 0.
+    jitter_cells: f64,
+}
+
 /// Whitted's subdivision test on the corner samples of a square: display values differing by
-/// more than `threshold`, different objects hit, or a near miss of a small object.
+/// more than `threshold`, different ray trees (objects, checker squares or shadowing lights
+/// anywhere in them), or a near miss of a small object. Without the ray-tree test a pixel
+/// whose corners land on two squares of one colour, or see the same brightness in a mirror,
+/// is averaged over a wedge of the other colour it never sampled.
 fn corners_differ(q: &[Sample; 4], threshold: f64) -> bool {
     let d0 = q[0].display;
     q.iter().any(|a| {
-        (a.display - d0).abs().max_element() > threshold || a.object != q[0].object || a.near_miss
+        (a.display - d0).abs().max_element() > threshold || a.key != q[0].key || a.near_miss
     })
 }
 
@@ -1168,4 +1242,24 @@ pub fn contact_sheet(images: &[(String, Image)]) -> anyhow::Result<Vec<u8>> {
             .map_err(|e| anyhow::anyhow!("drawing failed: {e:?}"))?;
     }
     crate::plot::encode_png(w, h, &buf)
+}
+
+/// Folds `v` into the hash `h` with the splitmix64 finaliser (Steele, Lea & Flood 2014): the
+/// keys of ray trees and the fixed random offsets of jittered samples.
+fn mix(h: u64, v: u64) -> u64 {
+    let mut z = (h.rotate_left(23) ^ v).wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// A fixed point of [0, 1)² for the sample at integer lattice position (i, j): the same
+/// position gives the same offset in every run, so jittered images are deterministic.
+fn jitter(i: u64, j: u64) -> (f64, f64) {
+    let z = mix(mix(0, i), j);
+    let unit = 1.0 / (1u64 << 24) as f64;
+    (
+        (z >> 40) as f64 * unit,
+        ((z >> 16) & 0xFF_FFFF) as f64 * unit,
+    )
 }

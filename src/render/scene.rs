@@ -13,11 +13,12 @@
 //! width = 512
 //! height = 512
 //! [antialias]
-//! mode = "adaptive"         # adaptive | uniform | none
+//! mode = "adaptive"         # adaptive | uniform | stratified | none
 //! threshold = 0.02          # adaptive: difference of √(linear value) that subdivides
 //! max_level = 3             # adaptive: at most 2^3 × 2^3 squares per pixel
 //! block = 1                 # adaptive: first squares of 1, 2 or 4 pixels (>1: interpolate)
-//! samples = 4               # uniform: 4 × 4 per pixel
+//! jitter = false            # adaptive: trace each corner at a fixed random point near it
+//! samples = 4               # uniform / stratified: 4 × 4 per pixel (stratified: jittered)
 //! [[lights]]
 //! kind = "point"            # point (1/r² falloff) | directional
 //! position = [1, 4, 9]      # point; directional lights give `direction` (toward the light)
@@ -86,6 +87,7 @@ struct AaSpec {
     threshold: Option<f64>,
     max_level: Option<u32>,
     block: Option<u32>,
+    jitter: Option<bool>,
     samples: Option<u32>,
 }
 
@@ -299,10 +301,12 @@ pub fn parse_scene(text: &str, dir: &Path) -> Result<Scene> {
             threshold: 0.02,
             max_level: 3,
             block: 1,
+            jitter: false,
         },
         Some(a) => match a.mode.as_str() {
             "none" => AntiAlias::None,
             "uniform" => AntiAlias::Uniform(a.samples.unwrap_or(4).clamp(1, 64)),
+            "stratified" => AntiAlias::Stratified(a.samples.unwrap_or(4).clamp(1, 64)),
             "adaptive" => AntiAlias::Adaptive {
                 threshold: a.threshold.unwrap_or(0.02).max(0.0),
                 max_level: a.max_level.unwrap_or(3).min(8),
@@ -310,9 +314,12 @@ pub fn parse_scene(text: &str, dir: &Path) -> Result<Scene> {
                     b @ (1 | 2 | 4) => b,
                     b => bail!("antialias block = {b} is not supported\n  fix: use 1, 2 or 4"),
                 },
+                jitter: a.jitter.unwrap_or(false),
             },
             other => {
-                bail!("antialias mode '{other}' is unknown\n  fix: use adaptive, uniform or none")
+                bail!(
+                    "antialias mode '{other}' is unknown\n  fix: use adaptive, uniform, stratified or none"
+                )
             }
         },
     };
@@ -524,6 +531,7 @@ pub fn fig7_scene(model: Model, lighting: Lighting, res: u32) -> Scene {
             threshold: 0.02,
             max_level: 3,
             block: 1,
+            jitter: false,
         },
     }
 }
