@@ -8,11 +8,11 @@ with three changes so both render the *same* picture: the aluminium sphere gets 
 index n = 200 instead of Mitsuba's complex 'Al' index, its mirror ray the constant weight
 ks = 0.5 of Whitted's equation (the plugin multiplies by F(N·E)), and the floor brdfit's
 checker phase (world-space squares). Before timing anything the
-script checks the two converged images agree (RMSE between brdfit's 16×16 render and Mitsuba's
+script checks the two converged images agree (RMSE between brdfit's stratified 16×16 render and Mitsuba's
 high-spp render), so the comparison is of speed, not of different pictures.
 
 Error: RMSE of linear RGB over all pixels against Mitsuba's high-spp render (stratified, box
-filter = the pixel-area average; brdfit's 16×16 uniform render converges to the same).
+filter = the pixel-area average; brdfit's stratified 16×16 render converges to the same).
 Times: Mitsuba = mi.render + sync, median of runs after a warm-up (JIT compiled once, as its own
 bench does); brdfit = the render time it reports (in-process, without scene parsing or writing),
 median of runs. Both on THREADS threads (default 2). For each Mitsuba sample count, brdfit's time
@@ -134,10 +134,10 @@ def interpolate(curve, err):
 def main():
     with tempfile.TemporaryDirectory() as tmp:
         ref, t_ref = mitsuba(REF_SPP, 1)
-        own_ref, t_own, _ = brdfit('mode = "uniform"\nsamples = 16', 1, tmp)
+        own_ref, t_own, _ = brdfit('mode = "stratified"\nsamples = 16', 1, tmp)
         print(json.dumps(dict(scene=light, threads=THREADS, reference=f"mitsuba {REF_SPP} spp",
                               reference_seconds=round(t_ref, 2),
-                              rmse_brdfit_16x16_vs_reference=rmse(own_ref, ref),
+                              rmse_brdfit_stratified_16x16_vs_reference=rmse(own_ref, ref),
                               max_abs_diff=float(np.max(np.abs(own_ref - ref))))))
         peer = []
         for spp in [1, 4, 16, 64, 256]:
@@ -146,14 +146,13 @@ def main():
             print(json.dumps(dict(program="mitsuba llvm_ad_rgb", spp=spp, seconds=round(t, 4),
                                   rmse=peer[-1][1])))
         ours = []
-        settings = ['mode = "none"'] + [f'mode = "uniform"\nsamples = {n}' for n in (2, 3, 4, 6)] + [
-            f'mode = "adaptive"\nthreshold = {th}\nmax_level = {lv}'
-            for th, lv in [(0.3, 1), (0.2, 1), (0.2, 2), (0.1, 2), (0.1, 3), (0.05, 3), (0.02, 3),
-                           (0.01, 3), (0.005, 4), (0.001, 5)]] + [
-            f'mode = "adaptive"\nthreshold = {th}\nmax_level = {lv}\nblock = {b}'
-            for b in (2, 4)
-            for th, lv in [(0.3, 0), (0.2, 0), (0.1, 0), (0.1, 1), (0.05, 1), (0.05, 2), (0.02, 2),
-                           (0.02, 3)]]
+        settings = ['mode = "none"'] + [
+            f'mode = "{m}"\nsamples = {n}' for m, ns in [("uniform", (2, 4)), ("stratified", (2, 4, 8))]
+            for n in ns] + [
+            f'mode = "adaptive"\nthreshold = {th}\nmax_level = {lv}\nblock = {b}\njitter = {j}'
+            for b in (1, 2, 4)
+            for th, lv in [(0.1, 0), (0.05, 1), (0.05, 2), (0.02, 3), (0.02, 4), (0.01, 4)]
+            for j in ("false", "true") if lv >= 2 or j == "false"]
         for aa in settings:
             img, t, rpp = brdfit(aa, RUNS, tmp)
             e = rmse(img, ref)

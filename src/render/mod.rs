@@ -816,11 +816,13 @@ impl Scene {
         Counters::bump(&c.primary);
         let footprint = sub.footprint * side;
         let (x, y) = if sub.jitter_cells > 0.0 {
-            // Lattice coordinates are multiples of 2^-max_level: exact integers here.
+            // Lattice coordinates (≥ 0) are multiples of 2^-max_level: x·k is an exact integer
+            // (the cast truncates; no libm call for `round` on baseline x86-64).
             let k = sub.jitter_cells;
-            let (i, j) = ((x * k).round(), (y * k).round());
-            let (u, v) = jitter(i as u64, j as u64);
-            ((i + u - 0.5) / k, (j + v - 0.5) / k)
+            let (i, j) = ((x * k + 0.5) as u64, (y * k + 0.5) as u64);
+            let (u, v) = jitter(i, j);
+            let inv = 1.0 / k;
+            ((i as f64 + u - 0.5) * inv, (j as f64 + v - 0.5) * inv)
         } else {
             (x, y)
         };
