@@ -22,7 +22,7 @@ target/release/brdfit study render --scene data/scenes/mitsuba-front.toml -o "$O
 if $PYTHON -c "import mitsuba" 2>/dev/null && [ -f "$PEERS/blinn_whitted.py" ]; then
   for light in front edge; do
     echo "== equal error against one shared reference, $light light (benches/mitsuba_equal_error.py)"
-    PEERS="$PEERS" THREADS=2 $PYTHON benches/mitsuba_equal_error.py "$light" --ref-spp 1024 --runs 5
+    PEERS="$PEERS" THREADS=2 $PYTHON benches/mitsuba_equal_error.py "$light" --ref-spp 4096 --runs 5
   done
 else
   echo "== Mitsuba 3 is not installed for $PYTHON: only brdfit was measured."

@@ -8,16 +8,16 @@ with three changes so both render the *same* picture: the aluminium sphere gets 
 index n = 200 instead of Mitsuba's complex 'Al' index, its mirror ray the constant weight
 ks = 0.5 of Whitted's equation (the plugin multiplies by F(N·E)), and the floor brdfit's
 checker phase (world-space squares). Before timing anything the
-script checks the two converged images agree (RMSE between brdfit's stratified 16×16 render and Mitsuba's
+script checks the two converged images agree (RMSE between brdfit's stratified 32×32 render and Mitsuba's
 high-spp render), so the comparison is of speed, not of different pictures.
 
 Error: RMSE of linear RGB over all pixels against Mitsuba's high-spp render (stratified, box
-filter = the pixel-area average; brdfit's stratified 16×16 render converges to the same).
+filter = the pixel-area average; brdfit's stratified 32×32 render converges to the same).
 Times: Mitsuba = mi.render + sync, median of runs after a warm-up (JIT compiled once, as its own
 bench does); brdfit = the render time it reports (in-process, without scene parsing or writing),
 median of runs. Both on THREADS threads (default 2). For each Mitsuba sample count, brdfit's time
 at the same error is interpolated (log-log) on the time/error front of all its settings (none,
-uniform n×n, adaptive threshold/level); the ratio is printed.
+uniform and stratified n×n, adaptive threshold/level/block/jitter); the ratio is printed.
 
 usage: THREADS=2 PYTHON benches/mitsuba_equal_error.py [front|edge] [--ref-spp N] [--runs N]
 needs: pip install mitsuba numpy; llvm_ad_rgb needs LLVM ≥ 19 (DRJIT_LIBLLVM_PATH, see
@@ -35,7 +35,7 @@ args = sys.argv[1:]
 light = args[0] if args and not args[0].startswith("--") else "front"
 def opt(name, default):
     return int(args[args.index(name) + 1]) if name in args else default
-REF_SPP = opt("--ref-spp", 1024)
+REF_SPP = opt("--ref-spp", 4096)
 RUNS = opt("--runs", 5)
 
 sys.path.insert(0, PEERS)
@@ -134,10 +134,10 @@ def interpolate(curve, err):
 def main():
     with tempfile.TemporaryDirectory() as tmp:
         ref, t_ref = mitsuba(REF_SPP, 1)
-        own_ref, t_own, _ = brdfit('mode = "stratified"\nsamples = 16', 1, tmp)
+        own_ref, t_own, _ = brdfit('mode = "stratified"\nsamples = 32', 1, tmp)
         print(json.dumps(dict(scene=light, threads=THREADS, reference=f"mitsuba {REF_SPP} spp",
                               reference_seconds=round(t_ref, 2),
-                              rmse_brdfit_stratified_16x16_vs_reference=rmse(own_ref, ref),
+                              rmse_brdfit_stratified_32x32_vs_reference=rmse(own_ref, ref),
                               max_abs_diff=float(np.max(np.abs(own_ref - ref))))))
         peer = []
         for spp in [1, 4, 16, 64, 256]:
@@ -151,7 +151,7 @@ def main():
             for n in ns] + [
             f'mode = "adaptive"\nthreshold = {th}\nmax_level = {lv}\nblock = {b}\njitter = {j}'
             for b in (1, 2, 4)
-            for th, lv in [(0.1, 0), (0.05, 1), (0.05, 2), (0.02, 3), (0.02, 4), (0.01, 4)]
+            for th, lv in [(0.1, 0), (0.05, 1), (0.05, 2), (0.02, 3), (0.02, 4), (0.01, 4), (0.005, 5)]
             for j in ("false", "true") if lv >= 2 or j == "false"]
         for aa in settings:
             img, t, rpp = brdfit(aa, RUNS, tmp)
