@@ -907,7 +907,7 @@ impl Scene {
                     max_level,
                     footprint,
                     jitter_cells: if jitter {
-                        (1u64 << max_level) as f64
+                        2f64.powi(max_level.min(60) as i32)
                     } else {
                         0.0
                     },
