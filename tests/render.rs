@@ -628,6 +628,29 @@ height = {h}
     )
 }
 
+/// A Lambert floor (pd = 1) with a checker of `size`-unit squares, colours c0 / c1, under a
+/// directional light of irradiance π straight down: radiance = albedo.
+fn checker_floor_under_sun(size: f64, c0: f64, c1: f64) -> String {
+    format!(
+        r#"
+[[lights]]
+kind = "directional"
+direction = [0.0, 1.0, 0.0]
+intensity = 3.141592653589793
+[materials.floor]
+model = "lambert"
+params = {{ pd = 1.0 }}
+checker = {{ size = {size}, color0 = [{c0}, {c0}, {c0}], color1 = [{c1}, {c1}, {c1}] }}
+[[objects]]
+kind = "plane"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+size = 1000.0
+material = "floor"
+"#
+    )
+}
+
 /// Mean albedo of a checker (1-unit squares, `c0` where ⌊x⌋ + ⌊z⌋ is even) over the floor
 /// rectangle [x0, x1] × [z0, z1], from the overlap of each square.
 fn checker_mean(c0: f64, c1: f64, (x0, x1): (f64, f64), (z0, z1): (f64, f64)) -> f64 {
@@ -651,28 +674,12 @@ fn corners_on_two_squares_of_one_colour_subdivide_directly_and_in_a_mirror() {
     let aa = "mode = \"adaptive\"\nthreshold = 0.02\nmax_level = 4";
     let expect = checker_mean(0.2, 0.8, (-0.9, 1.1), (-0.9, 1.1));
     assert!((expect - 0.5).abs() < 1e-12);
-    // Directly: a directional light of irradiance π straight down, so radiance = albedo.
     let direct = top_down(
         (0.1, 5.0, 0.1),
         (5, 5),
         0.0,
         aa,
-        r#"
-[[lights]]
-kind = "directional"
-direction = [0.0, 1.0, 0.0]
-intensity = 3.141592653589793
-[materials.floor]
-model = "lambert"
-params = { pd = 1.0 }
-checker = { size = 1.0, color0 = [0.2, 0.2, 0.2], color1 = [0.8, 0.8, 0.8] }
-[[objects]]
-kind = "plane"
-point = [0.0, 0.0, 0.0]
-normal = [0.0, 1.0, 0.0]
-size = 100.0
-material = "floor"
-"#,
+        &checker_floor_under_sun(1.0, 0.2, 0.8),
     );
     // In a mirror: a black mirror floor (ks = 1) under a checker ceiling at height 10 lit by
     // ambient 1; the ceiling is 5 + 10 = 15 units from the eye along the reflected rays, so
@@ -776,24 +783,9 @@ fn jittered_samples_remove_the_regular_grids_bias_on_an_aligned_edge() {
     // row mean's spread is ≈ 0.006), and the regular ones must not be.
     let p = 10.0 / 64.0;
     let eye = (50.0, 5.0, 5.0 - (32.0 + 0.3) * p);
-    let extra = r#"
-[[lights]]
-kind = "directional"
-direction = [0.0, 1.0, 0.0]
-intensity = 3.141592653589793
-[materials.floor]
-model = "lambert"
-params = { pd = 1.0 }
-checker = { size = 100.0, color0 = [0.0, 0.0, 0.0], color1 = [1.0, 1.0, 1.0] }
-[[objects]]
-kind = "plane"
-point = [0.0, 0.0, 0.0]
-normal = [0.0, 1.0, 0.0]
-size = 1000.0
-material = "floor"
-"#;
+    let extra = checker_floor_under_sun(100.0, 0.0, 1.0);
     let row_error = |aa: &str| {
-        let s = scene(&top_down(eye, (64, 64), 0.0, aa, extra));
+        let s = scene(&top_down(eye, (64, 64), 0.0, aa, &extra));
         let img = s.render(&|| {});
         assert_eq!(
             img.pixels,
