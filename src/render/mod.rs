@@ -517,8 +517,8 @@ pub enum AntiAlias {
     /// the regular grid's error on edges nearly aligned with it becomes noise that falls faster.
     Stratified(u32),
     /// Whitted's adaptive corner sampling: subdivide where corners differ by more than
-    /// `threshold` (in display units, √ of the linear value) or hit different objects, up to
-    /// `max_level`.
+    /// `threshold` (in display units, √ of the linear value), have different ray trees or
+    /// pass near a small object, up to `max_level`.
     Adaptive {
         /// Display-value difference that triggers subdivision.
         threshold: f64,
@@ -845,7 +845,10 @@ impl Scene {
         let mut key = 0;
         let color = match hit {
             Some(h) => self.shade(&r, h, 0, 1.0, c, &mut key),
-            None => self.background,
+            None => {
+                key = mix(key, MISSED);
+                self.background
+            }
         };
         Sample {
             color,
