@@ -755,6 +755,13 @@ struct FitArgs {
     /// Skip the global initialisation (local method from --start or the default start only).
     #[arg(long)]
     local_only: bool,
+    /// Certificate: after the fit, refine K seeded random starts and report whether any ended
+    /// lower (JSON `verified`, `verify_best_cost`); a fit one of them beats is marked not usable.
+    #[arg(long, value_name = "K", default_value_t = 0)]
+    verify: usize,
+    /// Seed of the --verify starts.
+    #[arg(long, value_name = "S", default_value_t = 1)]
+    verify_seed: u64,
     /// Phong only: fast power approximation with γ = 2^K.
     #[arg(long, value_name = "K")]
     fast_pow: Option<u32>,
@@ -1421,6 +1428,8 @@ fn fit_one(
             .collect();
         o.local_only = a.local_only;
         o.fast_pow = a.fast_pow;
+        o.verify = a.verify;
+        o.seed = a.verify_seed;
         let mut fits = fit::fit(&ds, &o).map_err(|e| anyhow!("{}: {e}", file.display()))?;
         if a.repeat > 1 {
             let both = |f: &fit::FitResult| [f.seconds, f.geometry_seconds];

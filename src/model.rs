@@ -372,6 +372,19 @@ impl ModelKind {
         }
     }
 
+    /// The parameters' declarations in their fixed order (see [`ParamSpec`]).
+    pub fn params(self, dist: Distribution) -> &'static [ParamSpec] {
+        match self {
+            ModelKind::Lambert => &[PD],
+            ModelKind::Phong | ModelKind::BlinnPhong => &[C1, PS, PD],
+            ModelKind::TorranceSparrow => match dist {
+                Distribution::D1 => &[N, C1, PS, PD],
+                Distribution::D2 => &[N, C2, PS, PD],
+                Distribution::D3 => &[N, C3, PS, PD],
+            },
+        }
+    }
+
     /// Parameter names in their fixed order; for torrance-sparrow the shape parameter is
     /// named after the distribution (`c3` for D3).
     pub fn param_names(self, dist: Distribution) -> &'static [&'static str] {
@@ -392,6 +405,149 @@ impl fmt::Display for ModelKind {
         f.write_str(self.name())
     }
 }
+
+/// How the fitter maps a parameter θ to its free solver variable u.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Scale {
+    /// θ = u: the parameter enters the model linearly (ps, pd) and its bounds are handled by
+    /// the bound-constrained solver, so a value at a bound can leave it.
+    Linear,
+    /// θ = offset + e^u: a positive shape parameter spanning decades (c1, c2, c3 with offset 0;
+    /// n with offset 1, so n − 1 is fitted on a log scale). dθ/du = θ − offset never vanishes
+    /// inside the box.
+    Log {
+        /// The value θ approaches as u → −∞.
+        offset: f64,
+    },
+}
+
+/// Where the global initialisation's grid of a parameter comes from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Grid {
+    /// No grid: the parameter enters linearly and is solved for at each grid point.
+    Linear,
+    /// Lobe half-widths [`HALF_WIDTHS_DEG`] mapped by a distribution's c(β) (Blinn 1977).
+    HalfWidth(Distribution),
+    /// Fixed values.
+    Values(&'static [f64]),
+}
+
+/// The lobe half-widths (degrees) the initialisation grid spans, from mirror-sharp (well below
+/// a goniometer's 1° step) to nearly diffuse.
+pub const HALF_WIDTHS_DEG: [f64; 19] = [
+    0.05, 0.1, 0.18, 0.3, 0.5, 0.8, 1.2, 1.8, 2.7, 4.0, 6.0, 9.0, 13.0, 18.0, 25.0, 33.0, 43.0,
+    55.0, 70.0,
+];
+
+/// Everything the fitter, the CLI and the reports need to know about one model parameter,
+/// declared once ([`ModelKind::params`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ParamSpec {
+    /// Name as in `--set`, `--fix` and the JSON.
+    pub name: &'static str,
+    /// What it means, for help and reports.
+    pub meaning: &'static str,
+    /// Admissible range for fitting (natural units, inclusive).
+    pub lo: f64,
+    /// Upper end of the admissible range.
+    pub hi: f64,
+    /// Solver variable.
+    pub scale: Scale,
+    /// Global-initialisation grid.
+    pub grid: Grid,
+    /// Default start.
+    pub start: f64,
+    /// Range random starts are drawn from (log-uniform when both ends are positive).
+    pub random: (f64, f64),
+    /// A fitted value at or above this is not physically usable (e.g. n ≥ 1e6).
+    pub absurd_above: f64,
+}
+
+impl ParamSpec {
+    /// The grid values of the global initialisation (empty for linear parameters).
+    pub fn grid_values(&self) -> Vec<f64> {
+        match self.grid {
+            Grid::Linear => vec![],
+            Grid::Values(v) => v.to_vec(),
+            Grid::HalfWidth(d) => HALF_WIDTHS_DEG
+                .iter()
+                .map(|b| d.param_from_beta(b.to_radians()).clamp(self.lo, self.hi))
+                .collect(),
+        }
+    }
+}
+
+const PS: ParamSpec = ParamSpec {
+    name: "ps",
+    meaning: "specular coefficient",
+    lo: 0.0,
+    hi: f64::INFINITY,
+    scale: Scale::Linear,
+    grid: Grid::Linear,
+    start: 0.5,
+    random: (1e-2, 1e3),
+    absurd_above: f64::INFINITY,
+};
+const PD: ParamSpec = ParamSpec {
+    name: "pd",
+    meaning: "diffuse coefficient (albedo of the Lambertian part)",
+    lo: 0.0,
+    hi: f64::INFINITY,
+    scale: Scale::Linear,
+    grid: Grid::Linear,
+    start: 0.5,
+    random: (1e-3, 1.0),
+    absurd_above: f64::INFINITY,
+};
+const N: ParamSpec = ParamSpec {
+    name: "n",
+    meaning: "index of refraction of the Fresnel term (Blinn 1977, eq. for F)",
+    lo: 1.0 + 1e-4,
+    hi: 1e7,
+    scale: Scale::Log { offset: 1.0 },
+    // n − 1 from 0.003 (F0 ≈ 2e-6) to 3000 (F0 ≈ 0.9987, a metal's effective index).
+    grid: Grid::Values(&[
+        1.003, 1.007, 1.015, 1.03, 1.06, 1.12, 1.25, 1.5, 2.0, 3.0, 5.0, 9.0, 17.0, 41.0, 101.0,
+        401.0, 3001.0,
+    ]),
+    start: 1.5,
+    random: (1.01, 101.0),
+    absurd_above: 1e6,
+};
+/// Exponent of a cosine lobe: Phong's and Blinn–Phong's c1, and D1's.
+const C1: ParamSpec = ParamSpec {
+    name: "c1",
+    meaning: "exponent of the cosine lobe (larger = sharper)",
+    lo: 1e-3,
+    hi: 1e8,
+    scale: Scale::Log { offset: 0.0 },
+    grid: Grid::HalfWidth(Distribution::D1),
+    start: 10.0,
+    random: (0.3, 3e4),
+    absurd_above: f64::INFINITY,
+};
+const C2: ParamSpec = ParamSpec {
+    name: "c2",
+    meaning: "inverse width of the Gaussian facet distribution D2 (1/radian)",
+    lo: 1e-3,
+    hi: 1e6,
+    scale: Scale::Log { offset: 0.0 },
+    grid: Grid::HalfWidth(Distribution::D2),
+    start: 3.0,
+    random: (0.6, 800.0),
+    absurd_above: f64::INFINITY,
+};
+const C3: ParamSpec = ParamSpec {
+    name: "c3",
+    meaning: "eccentricity of the facet ellipsoids in D3 (smaller = sharper)",
+    lo: 1e-5,
+    hi: 1.0,
+    scale: Scale::Log { offset: 0.0 },
+    grid: Grid::HalfWidth(Distribution::D3),
+    start: 0.5,
+    random: (1e-3, 1.0),
+    absurd_above: f64::INFINITY,
+};
 
 /// An invalid model specification, with the fix.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -621,6 +777,32 @@ impl Model {
                 pd * FRAC_1_PI + ps * d * f * w
             }
         }
+    }
+}
+/// A number as a person reads it: 4 significant digits, in scientific notation (`3.554e7`)
+/// when it is ≥ 1e5 or below 1e-3 in magnitude, never hundreds of digits.
+pub fn readable(v: f64) -> String {
+    if !v.is_finite() {
+        return if v.is_nan() {
+            "undefined".into()
+        } else if v > 0.0 {
+            "∞".into()
+        } else {
+            "−∞".into()
+        };
+    }
+    let a = v.abs();
+    if a != 0.0 && !(1e-3..1e5).contains(&a) {
+        let s = format!("{v:.3e}");
+        // 3.500e7 → 3.5e7
+        match s.split_once('e') {
+            Some((m, e)) if m.contains('.') => {
+                format!("{}e{e}", m.trim_end_matches('0').trim_end_matches('.'))
+            }
+            _ => s,
+        }
+    } else {
+        short(v)
     }
 }
 

@@ -221,6 +221,7 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
             .map(|(k, d)| {
                 let mut o = FitOptions::new(k);
                 o.dist = d;
+                o.verify = REPORT_VERIFY;
                 fit::fit(&ds, &o).map(|mut v| v.remove(0))
             })
             .collect::<std::result::Result<_, _>>()
@@ -242,9 +243,15 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
                     format!("{:.6e}", f.cost),
                     format!("{:.1}", f.aic),
                     format!("{:.1}", f.bic),
-                    format!("{:.1}", f.bic - best_bic),
-                    if i == rec {
+                    if f.usable() {
+                        format!("{:.1}", f.bic - best_bic)
+                    } else {
+                        "—".into()
+                    },
+                    if Some(i) == rec {
                         "← simplest the data support".into()
+                    } else if !f.usable() {
+                        format!("not usable: {}", f.unusable.join("; "))
                     } else {
                         String::new()
                     },
@@ -253,17 +260,30 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
             .collect();
         doc.table(&["model", "k", "cost", "AIC", "BIC", "ΔBIC", ""], &rows);
         doc.p(&format!(
-            "Recommended: {} — the model with the fewest parameters within 2 BIC of the best.",
-            fits[rec].label()
+            "Every fit was checked by {REPORT_VERIFY} seeded random starts (`brdfit fit --verify {REPORT_VERIFY}`): {}.",
+            if fits.iter().all(|f| f.verification.as_ref().is_some_and(|v| v.verified)) {
+                "none ended lower than the fit shown".to_string()
+            } else {
+                "a fit that one of them beats is marked not usable".to_string()
+            }
         ));
+        let recommended = rec.map(|r| fits[r].label());
+        let rec = match rec {
+            Some(r) => {
+                doc.p(&format!(
+                    "Recommended: {} — the model with the fewest parameters within 2 BIC of the best.",
+                    fits[r].label()
+                ));
+                r
+            }
+            None => {
+                doc.p("No fit is usable, so no model is recommended; the Torrance–Sparrow fit is shown below for inspection only.");
+                ts_index(&fits)
+            }
+        };
 
         // Parameters of Torrance–Sparrow (D3) and of the recommended model.
-        let ts_i = fits
-            .iter()
-            .position(|f| {
-                f.model == ModelKind::TorranceSparrow && f.dist == crate::model::Distribution::D3
-            })
-            .expect("all_models has d3");
+        let ts_i = ts_index(&fits);
         doc.h(3, "Parameters", &format!("{name}-params"));
         let mut shown = vec![ts_i];
         if rec != ts_i {
@@ -283,8 +303,12 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
                         .map_or(String::new(), |r| fit::describe_range(n, (r.1, r.2)));
                     vec![
                         n.clone(),
-                        crate::model::short(*v),
-                        format!("{s:.3e}"),
+                        crate::model::readable(*v),
+                        if s.is_finite() && (*s <= 10.0 * v.abs() || *v == 0.0) {
+                            format!("{s:.3e}")
+                        } else {
+                            "not determined".into()
+                        },
                         range,
                     ]
                 })
@@ -307,6 +331,9 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
             for w in &f.warnings {
                 doc.p(&format!("⚠ {w}"));
             }
+            for why in &f.unusable {
+                doc.p(&format!("✗ Not usable: {why}"));
+            }
         }
         let ts = &fits[ts_i];
         let fit_path = root.join(&dir).join("fit-torrance-sparrow.json");
@@ -318,7 +345,7 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
             &rel(&fit_path, root),
             "Torrance–Sparrow fit as JSON (input to brdfit render, plot and export)",
         );
-        results.push(json!({ "file": file.display().to_string(), "channel": channel_note, "recommended": fits[rec].label(), "fits": fits.iter().map(fit_json).collect::<Vec<_>>() }));
+        results.push(json!({ "file": file.display().to_string(), "channel": channel_note, "recommended": recommended, "fits": fits.iter().map(fit_json).collect::<Vec<_>>() }));
 
         // Lobe plots.
         say(&format!("{name}: plots"));
@@ -528,4 +555,16 @@ fn md_table_to_html(md: &str) -> String {
     }
     out.push_str("</table>\n");
     out
+}
+
+/// Random starts the report's verification runs for every fit it shows.
+const REPORT_VERIFY: usize = 8;
+
+/// The Torrance–Sparrow D3 fit among the fits of [`fit::all_models`].
+fn ts_index(fits: &[FitResult]) -> usize {
+    fits.iter()
+        .position(|f| {
+            f.model == ModelKind::TorranceSparrow && f.dist == crate::model::Distribution::D3
+        })
+        .expect("all_models has d3")
 }

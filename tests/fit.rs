@@ -165,13 +165,16 @@ fn small_problem(loss: Loss) -> BrdfProblem {
                 Slot::Fixed(0.6),
             ],
         ],
-        transforms: vec![
-            Transform::IndexViaF0,
-            Transform::Logistic,
-            Transform::Square,
-            Transform::Square,
-            Transform::Square,
-        ],
+        transforms: {
+            let sp = ModelKind::TorranceSparrow.params(Distribution::D3);
+            vec![
+                Transform::of(&sp[0]),
+                Transform::of(&sp[1]),
+                Transform::of(&sp[2]),
+                Transform::of(&sp[3]),
+                Transform::of(&sp[2]),
+            ]
+        },
         loss,
     }
 }
@@ -213,27 +216,102 @@ fn transformed_gradient_matches_finite_differences() {
 
 #[test]
 fn transforms_invert_and_respect_bounds() {
-    for (t, vals) in [
-        (Transform::IndexViaF0, vec![1.01, 1.8, 200.0]),
-        (Transform::Logistic, vec![0.01, 0.35, 0.9]),
-        (Transform::Exp, vec![0.5, 40.0, 3000.0]),
-        (Transform::Square, vec![0.0, 0.4, 7.0]),
+    let sp = ModelKind::TorranceSparrow.params(Distribution::D3);
+    let c1 = ModelKind::Phong.params(Distribution::D3)[0];
+    for (spec, vals) in [
+        (sp[0], vec![1.01, 1.8, 200.0, 3e6]),
+        (sp[1], vec![0.001, 0.35, 0.9, 1.0]),
+        (c1, vec![0.5, 40.0, 3000.0, 2e6]),
+        (sp[2], vec![0.0, 0.4, 7.0, 9000.0]),
     ] {
+        let t = Transform::of(&spec);
         for v in vals {
             let back = t.apply(t.invert(v)).0;
             assert!(
-                (back - v).abs() < 1e-6 * (1.0 + v) || (v == 0.0 && back < 1e-7),
-                "{t:?} {v} -> {back}"
+                (back - v).abs() < 1e-9 * (1.0 + v),
+                "{} {v} -> {back}",
+                spec.name
             );
+            // dθ/du never vanishes inside the box (the square transform's did at 0).
+            assert!(t.apply(t.invert(v)).1 > 0.0, "{} {v}", spec.name);
         }
         let (lo, hi) = t.bounds();
-        for u in [lo, hi, 0.5 * (lo + hi)] {
-            let (v, _) = t.apply(u);
-            assert!(v.is_finite());
+        assert!(t.apply(lo).0 >= spec.lo * (1.0 - 1e-12), "{}", spec.name);
+        assert!(t.apply(hi).0 <= spec.hi * (1.0 + 1e-12), "{}", spec.name);
+        // The box spans each parameter's whole admissible range.
+        assert!(
+            (t.apply(lo).0 - spec.lo).abs() <= 1e-9 * (1.0 + spec.lo),
+            "{}",
+            spec.name
+        );
+    }
+    // n > 1 by construction.
+    let t = Transform::of(&sp[0]);
+    assert!(t.apply(t.bounds().0).0 > 1.0);
+}
+
+/// Data from Torrance–Sparrow with a small pd (0.004): from a start with pd exactly at its
+/// bound 0, the local method must leave the bound (the square transform pd = u² could not:
+/// its derivative vanishes at u = 0), end at pd ≈ 0.004, and report no parameter at a bound.
+#[test]
+fn a_parameter_at_its_bound_leaves_it_when_the_gradient_points_inward() {
+    let truth = Model::new(
+        ModelKind::TorranceSparrow,
+        Distribution::D3,
+        &[2.3, 0.05, 3.0, 0.004],
+    )
+    .unwrap();
+    let ds = simulate(&truth, &Grid::Hemisphere(3000).directions(1), 0.01, 1);
+    let mut o = ts();
+    o.local_only = true;
+    o.start = vec![
+        ("n".into(), 2.0),
+        ("c3".into(), 0.06),
+        ("ps".into(), 2.0),
+        ("pd".into(), 0.0),
+    ];
+    let f = fit::fit(&ds, &o).unwrap().remove(0);
+    assert!(
+        within(f.get("pd").unwrap(), 0.004, 0.05),
+        "pd = {}",
+        f.get("pd").unwrap()
+    );
+    assert!(f.at_bound.is_empty(), "{:?}", f.at_bound);
+    assert!(f.kkt_violation < 1e-6, "{}", f.kkt_violation);
+}
+
+/// Data that want a negative diffuse term (specular lobe minus a constant, linear loss): the
+/// fit ends with pd on its lower bound, reports it in `at_bound`, and satisfies the KKT
+/// conditions there (its gradient points out of the box); the optimum of ps and c3 with pd
+/// held at 0 is the same point.
+#[test]
+fn an_active_bound_is_reported_and_satisfies_the_kkt_conditions() {
+    let spec = Model::new(
+        ModelKind::TorranceSparrow,
+        Distribution::D3,
+        &[1.8, 0.2, 1.0, 0.0],
+    )
+    .unwrap();
+    let mut ds = Dataset::new(Quantity::Brdf, vec![("v".into(), None)]);
+    let sim = simulate(&spec, &Grid::Hemisphere(2000).directions(3), 0.0, 3);
+    for k in 0..sim.len() {
+        let v = sim.channels[0].values[k] - 0.02;
+        if v > 0.0 {
+            ds.push(sim.angles(k), &[v]);
         }
     }
-    // n > 1 by construction: the lowest u gives n just above 1.
-    assert!(Transform::IndexViaF0.apply(-20.0).0 > 1.0);
+    let mut o = ts();
+    o.loss = Loss::Linear;
+    let f = fit::fit(&ds, &o).unwrap().remove(0);
+    assert_eq!(f.get("pd"), Some(0.0), "{}", fit::format_fit(&f));
+    assert_eq!(f.at_bound, vec![("pd".to_string(), "lower".to_string())]);
+    assert!(f.kkt_violation < 1e-6, "{}", f.kkt_violation);
+    assert!(f.usable(), "{:?}", f.unusable);
+    // Independent check: with pd held at 0 the fit reaches the same cost.
+    let mut held = o.clone();
+    held.fix = vec![("pd".into(), 0.0)];
+    let g = fit::fit(&ds, &held).unwrap().remove(0);
+    assert!(within(f.cost, g.cost, 1e-9), "{} vs {}", f.cost, g.cost);
 }
 
 #[test]
@@ -251,6 +329,7 @@ fn model_comparison_picks_the_simplest_supported_model() {
         })
         .collect();
     let (_, rec) = fit::rank(&fits);
+    let rec = rec.expect("a usable fit");
     assert_eq!(
         fits[rec].model,
         ModelKind::Lambert,
@@ -273,7 +352,16 @@ fn model_comparison_picks_the_simplest_supported_model() {
         (fits[order[0]].model, fits[order[0]].dist),
         (ModelKind::TorranceSparrow, Distribution::D3)
     );
-    assert_eq!(fits[rec].model, ModelKind::TorranceSparrow);
+    assert_eq!(
+        fits[rec.expect("a usable fit")].model,
+        ModelKind::TorranceSparrow
+    );
+    // A fit marked not usable is never recommended, even with the best BIC.
+    let mut marked = fits.clone();
+    marked[order[0]].unusable = vec!["test".into()];
+    let (order2, rec2) = fit::rank(&marked);
+    assert_ne!(rec2, Some(order[0]));
+    assert_eq!(*order2.last().unwrap(), order[0]);
 }
 
 #[test]

@@ -8,9 +8,17 @@
 //! Methods:
 //! - [`Method::Lm`]: Levenberg–Marquardt with Marquardt's diagonal scaling and Nielsen's damping
 //!   update (K. Madsen, H. B. Nielsen, O. Tingleff, "Methods for non-linear least squares
-//!   problems", 2004, Algorithm 3.16), with bounds on the parameters by projection.
+//!   problems", 2004, Algorithm 3.16), bound-constrained as a projected LM with an active set:
+//!   each iteration fixes the variables at a bound whose gradient points out of the box
+//!   (Bertsekas, "Projected Newton methods for optimization problems with simple constraints",
+//!   SIAM J. Control Optim. 20, 1982), solves the damped system on the others and projects the
+//!   step onto the box (Kanzow, Yamashita, Fukushima, "Levenberg–Marquardt methods with strong
+//!   local convergence properties for solving nonlinear equations with convex constraints",
+//!   J. Comput. Appl. Math. 172, 2004). A variable at a bound whose gradient points inward is
+//!   free, so it leaves the bound; the gain ratio is taken on the projected step.
 //! - [`Method::GaussNewton`]: Gauss–Newton with a bounded, NaN-safe Armijo backtracking line
-//!   search (Nocedal & Wright, "Numerical Optimization", 2006, Algorithm 3.1).
+//!   search (Nocedal & Wright, "Numerical Optimization", 2006, Algorithm 3.1), with the same
+//!   active set and projection as LM.
 //! - [`Method::NelderMead`]: the derivative-free simplex method (Nelder & Mead 1965) with the
 //!   standard coefficients (1, 2, ½, ½), on the cost only.
 //!
@@ -280,23 +288,56 @@ pub fn normal_equations<P: Problem>(p: &P, x: &[f64], robust: Robust) -> Option<
     finite.then_some(out)
 }
 
-/// Solve (A + μ diag(D)) h = −g by Cholesky with Jacobi scaling; `None` if not positive definite.
-fn damped_solve(a: &[f64], g: &[f64], d: &[f64], mu: f64) -> Option<Vec<f64>> {
+/// Solve (A + μ diag(D)) h = −g by Cholesky with Jacobi scaling on the variables not in the
+/// active set (whose step is 0); `None` if not positive definite.
+fn damped_solve(a: &[f64], g: &[f64], d: &[f64], mu: f64, active: &[bool]) -> Option<Vec<f64>> {
     let n = g.len();
     // Scale by s_i = 1/√d_i so the scaled matrix has a unit-ish diagonal: better conditioned.
     let s: Vec<f64> = d.iter().map(|v| 1.0 / v.sqrt()).collect();
     let mut m = nalgebra::DMatrix::<f64>::zeros(n, n);
     for i in 0..n {
         for j in 0..n {
-            m[(i, j)] = a[i * n + j] * s[i] * s[j];
+            m[(i, j)] = if active[i] || active[j] {
+                if i == j { 1.0 } else { 0.0 }
+            } else {
+                a[i * n + j] * s[i] * s[j]
+            };
         }
         m[(i, i)] += mu;
     }
-    let rhs = nalgebra::DVector::from_iterator(n, (0..n).map(|i| -g[i] * s[i]));
+    let rhs = nalgebra::DVector::from_iterator(
+        n,
+        (0..n).map(|i| if active[i] { 0.0 } else { -g[i] * s[i] }),
+    );
     let chol = m.cholesky()?;
     let y = chol.solve(&rhs);
     let h: Vec<f64> = (0..n).map(|i| y[i] * s[i]).collect();
     h.iter().all(|v| v.is_finite()).then_some(h)
+}
+
+/// Where `x` sits on its box: −1 at the lower bound, +1 at the upper, 0 inside.
+pub fn bound_side(x: f64, (lo, hi): (f64, f64)) -> i8 {
+    let tol = |b: f64| 1e-12 * (1.0 + b.abs());
+    if x <= lo + tol(lo) {
+        -1
+    } else if x >= hi - tol(hi) {
+        1
+    } else {
+        0
+    }
+}
+
+/// The active set of Bertsekas' projected Newton method (SIAM J. Control Optim. 20, 1982):
+/// the variables at a bound whose cost gradient `g` points out of the box, so that no descent
+/// step can move them. A variable at a bound whose gradient points inward is free and leaves it.
+pub fn active_set(x: &[f64], g: &[f64], bounds: &[(f64, f64)]) -> Vec<bool> {
+    (0..x.len())
+        .map(|i| match bound_side(x[i], bounds[i]) {
+            -1 => g[i] >= 0.0,
+            1 => g[i] <= 0.0,
+            _ => false,
+        })
+        .collect()
 }
 
 fn project(x: &mut [f64], bounds: &[(f64, f64)]) {
@@ -315,12 +356,15 @@ fn scale_diag(n: &Normal, dim: usize) -> Vec<f64> {
         .collect()
 }
 
-/// The scaled-gradient convergence test: max |(Jᵀr)_i|/√d_i ≤ gtol·√(2 cost), or a zero cost.
-fn gradient_small(ne: &Normal, d: &[f64], gtol: f64) -> bool {
+/// The scaled-gradient convergence test on the free variables (the projected gradient):
+/// max |(Jᵀr)_i|/√d_i ≤ gtol·√(2 cost), or a zero cost.
+fn gradient_small(ne: &Normal, d: &[f64], gtol: f64, active: &[bool]) -> bool {
     let gmax = d
         .iter()
         .zip(&ne.jtr)
-        .map(|(di, g)| g.abs() / di.sqrt())
+        .zip(active)
+        .filter(|(_, a)| !**a)
+        .map(|((di, g), _)| g.abs() / di.sqrt())
         .fold(0.0f64, f64::max);
     gmax <= gtol * (2.0 * ne.cost).sqrt().max(1e-300) || ne.cost == 0.0
 }
@@ -379,8 +423,9 @@ pub fn levenberg_marquardt<P: Problem>(
             termination = "evaluation limit reached".into();
             break;
         }
-        // Scaled gradient test.
-        if gradient_small(&ne, &d, limits.gtol) {
+        // Scaled gradient test on the free variables.
+        let active = active_set(&x, &ne.jtr, &bounds);
+        if gradient_small(&ne, &d, limits.gtol, &active) {
             termination = "gradient below tolerance".into();
             converged = true;
             break;
@@ -390,7 +435,7 @@ pub fn levenberg_marquardt<P: Problem>(
         for i in 0..dim {
             d[i] = d[i].max(ne.jtj[i * dim + i]);
         }
-        let Some(h) = damped_solve(&ne.jtj, &ne.jtr, &d, mu) else {
+        let Some(h) = damped_solve(&ne.jtj, &ne.jtr, &d, mu, &active) else {
             mu *= nu;
             nu *= 2.0;
             if mu > 1e20 {
@@ -499,15 +544,16 @@ pub fn gauss_newton<P: Problem>(p: &P, x0: &[f64], robust: Robust, limits: &Limi
     let mut converged = false;
     while iter < limits.max_iter && evals < limits.max_eval {
         let d = scale_diag(&ne, dim);
-        if gradient_small(&ne, &d, limits.gtol) {
+        let active = active_set(&x, &ne.jtr, &bounds);
+        if gradient_small(&ne, &d, limits.gtol, &active) {
             termination = "gradient below tolerance".into();
             converged = true;
             break;
         }
         iter += 1;
         // A pure Gauss–Newton step; a tiny ridge only where JᵀJ is numerically singular.
-        let Some(h) = damped_solve(&ne.jtj, &ne.jtr, &d, 1e-12)
-            .or_else(|| damped_solve(&ne.jtj, &ne.jtr, &d, 1e-6))
+        let Some(h) = damped_solve(&ne.jtj, &ne.jtr, &d, 1e-12, &active)
+            .or_else(|| damped_solve(&ne.jtj, &ne.jtr, &d, 1e-6, &active))
         else {
             termination = "singular normal equations".into();
             break;

@@ -18,9 +18,9 @@ pub mod problem;
 use crate::data::Dataset;
 use crate::lanes::{self, LANES};
 use crate::model::Geometry;
-use crate::model::{Distribution, Model, ModelKind, param_bounds};
+use crate::model::{Distribution, Model, ModelKind, ParamSpec, Scale, param_bounds, readable};
 use lsq::{Limits, Method, Problem, Robust, Solution};
-use problem::{BrdfProblem, Loss, Rows, Slot, Transform, init_grid, linear_index};
+use problem::{BrdfProblem, Loss, Rows, Slot, Transform, linear_index};
 use std::time::Instant;
 
 /// A fit that cannot be run, with the fix.
@@ -80,6 +80,10 @@ pub struct FitOptions {
     pub limits: Limits,
     /// Profile undetermined parameters to report the range that fits.
     pub profile: bool,
+    /// Random local starts run after the fit as a certificate (0 = none); see [`Verification`].
+    pub verify: usize,
+    /// Seed of the verification starts.
+    pub seed: u64,
 }
 
 impl FitOptions {
@@ -99,9 +103,30 @@ impl FitOptions {
             fast_pow: None,
             limits: Limits::default(),
             profile: true,
+            verify: 0,
+            seed: 1,
         }
     }
 }
+
+/// The outcome of `--verify K`: K seeded random starts, each refined by the local method (on
+/// the same subsample as the pipeline's candidates, the best one then on every sample).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Verification {
+    /// Number of random starts.
+    pub starts: usize,
+    /// The lowest cost any of them reached (on every sample).
+    pub best_cost: f64,
+    /// True when none ended lower than the fit (by more than 1e-6 relative).
+    pub verified: bool,
+}
+
+/// Relative cost difference below which two fits count as the same minimum.
+pub const SAME_MINIMUM: f64 = 1e-6;
+
+/// Largest scaled projected gradient accepted as a first-order (KKT) point: for each free
+/// parameter |∂cost/∂u| / (‖∂r/∂u‖ ‖r‖), with only the inward part counted at a bound.
+pub const KKT_TOLERANCE: f64 = 1e-3;
 
 /// The outcome of one fit (one channel, or a joint fit of several).
 #[derive(Clone, Debug)]
@@ -152,9 +177,24 @@ pub struct FitResult {
     /// Profiled ranges of the nonlinear parameters: values within 1 % of the minimum cost
     /// (upper bound ∞ when the range is open).
     pub ranges: Vec<(String, f64, f64)>,
+    /// Parameters that ended on a bound of their admissible range, with the side (`lower` or
+    /// `upper`).
+    pub at_bound: Vec<(String, String)>,
+    /// First-order optimality at the returned point: the largest scaled projected gradient
+    /// over the free parameters (see [`KKT_TOLERANCE`]).
+    pub kkt_violation: f64,
+    /// The random-start certificate, when one was run.
+    pub verification: Option<Verification>,
+    /// Why the fit is not usable as a result; empty when it is.
+    pub unusable: Vec<String>,
 }
 
 impl FitResult {
+    /// True when nothing marks the fit as not usable (verification, KKT, absurd values).
+    pub fn usable(&self) -> bool {
+        self.unusable.is_empty()
+    }
+
     /// Fitted model of channel `c` (for a single-channel fit, `c = 0`).
     pub fn model_for(&self, c: usize) -> Model {
         let names = self.model.param_names(self.dist);
@@ -247,6 +287,24 @@ impl FitResult {
             );
         }
         o.insert("ranges".into(), Value::Object(ranges));
+        let mut at_bound = Map::new();
+        for (n, side) in &self.at_bound {
+            at_bound.insert(n.clone(), json!(side));
+        }
+        o.insert("at_bound".into(), Value::Object(at_bound));
+        o.insert("kkt_violation".into(), json!(self.kkt_violation));
+        match &self.verification {
+            Some(v) => {
+                o.insert("verified".into(), json!(v.verified));
+                o.insert("verify_starts".into(), json!(v.starts));
+                o.insert("verify_best_cost".into(), json!(v.best_cost));
+            }
+            None => {
+                o.insert("verified".into(), Value::Null);
+            }
+        }
+        o.insert("usable".into(), json!(self.usable()));
+        o.insert("unusable".into(), json!(self.unusable));
         o.insert("aic".into(), json!(self.aic));
         o.insert("bic".into(), json!(self.bic));
         Value::Object(o)
@@ -299,6 +357,32 @@ impl FitResult {
             aic: f("aic"),
             n_free: n,
             ranges: vec![],
+            at_bound: v
+                .get("at_bound")
+                .and_then(|x| x.as_object())
+                .map(|o| {
+                    o.iter()
+                        .map(|(k, x)| (k.clone(), x.as_str().unwrap_or("").to_string()))
+                        .collect()
+                })
+                .unwrap_or_default(),
+            kkt_violation: f("kkt_violation"),
+            verification: v.get("verified").and_then(|x| x.as_bool()).map(|verified| {
+                Verification {
+                    starts: f("verify_starts") as usize,
+                    best_cost: f("verify_best_cost"),
+                    verified,
+                }
+            }),
+            unusable: v
+                .get("unusable")
+                .and_then(|x| x.as_array())
+                .map(|a| {
+                    a.iter()
+                        .filter_map(|x| x.as_str().map(str::to_string))
+                        .collect()
+                })
+                .unwrap_or_default(),
         })
     }
 }
@@ -479,10 +563,12 @@ fn fit_group(
     let t0 = Instant::now();
     let kind = opts.kind;
     let names = kind.param_names(opts.dist);
+    let model_specs = kind.params(opts.dist);
     let multi = chans.len() > 1;
     // Layout: fixed, shared or per channel.
     let mut transforms = Vec::new();
     let mut var_names: Vec<String> = Vec::new();
+    let mut var_specs: Vec<&ParamSpec> = Vec::new();
     let mut layout = vec![[Slot::Fixed(0.0); 4]; chans.len()];
     let mut entries: Vec<Entry> = Vec::new();
     for (j, name) in names.iter().enumerate() {
@@ -496,7 +582,8 @@ fn fit_group(
             });
         } else if !multi || opts.shared.iter().any(|s| s == name) {
             let k = transforms.len();
-            transforms.push(Transform::for_param(name));
+            transforms.push(Transform::of(&model_specs[j]));
+            var_specs.push(&model_specs[j]);
             var_names.push(name.to_string());
             for l in layout.iter_mut() {
                 l[j] = Slot::Free(k);
@@ -514,7 +601,8 @@ fn fit_group(
                 && !opts.fix.iter().any(|(k, _)| k == name)
             {
                 let k = transforms.len();
-                transforms.push(Transform::for_param(name));
+                transforms.push(Transform::of(&model_specs[j]));
+                var_specs.push(&model_specs[j]);
                 let nm = format!("{name}_{}", ch.name);
                 var_names.push(nm.clone());
                 layout[c][j] = Slot::Free(k);
@@ -598,10 +686,10 @@ fn fit_group(
     // Candidate starts.
     let mut candidates: Vec<Vec<f64>> = Vec::new();
     if !opts.local_only {
-        candidates.extend(global_init(&full, &var_names, opts));
+        candidates.extend(global_init(&full, &var_specs, opts));
     }
     if !opts.start.is_empty() || candidates.is_empty() {
-        candidates.push(start_vector(&full, &var_names, &opts.start));
+        candidates.push(start_vector(&full, &var_specs, &var_names, &opts.start));
     }
     // On a subsample only the basin matters: the polish on every row sets the final accuracy.
     let refine_limits = if sub.is_some() {
@@ -614,38 +702,50 @@ fn fit_group(
     };
     let mut iterations = 0;
     let mut evaluations = 0;
-    let mut best: Option<Solution> = None;
-    let sols: Vec<Solution> = {
+    let mut sols: Vec<Solution> = {
         use rayon::prelude::*;
         candidates
             .par_iter()
             .map(|x0| lsq::solve(work, x0, opts.method, Robust::None, &refine_limits))
             .collect()
     };
-    for s in sols {
+    for s in &sols {
         iterations += s.iterations;
         evaluations += s.evaluations;
-        if best.as_ref().is_none_or(|b| s.cost < b.cost) {
-            best = Some(s);
-        }
     }
-    let mut sol = best.expect("at least one candidate");
+    sols.sort_by(|a, b| a.cost.total_cmp(&b.cost));
     let robust = match opts.robust {
         None => Robust::None,
         Some(kind) => {
-            let delta = robust_scale(&full, &sol.x);
+            let delta = robust_scale(&full, &sols[0].x);
             match kind {
                 RobustKind::Huber => Robust::Huber(delta),
                 RobustKind::Cauchy => Robust::Cauchy(delta),
             }
         }
     };
-    if sub.is_some() || robust != Robust::None {
-        let s = lsq::solve(&full, &sol.x, opts.method, robust, &opts.limits);
-        iterations += s.iterations;
-        evaluations += s.evaluations;
-        sol = s;
-    }
+    let sol = if sub.is_some() || robust != Robust::None {
+        // A subsample's cost tells basins apart only to within its sampling noise: every
+        // distinct basin whose subsample cost is near the best is polished on every row.
+        let contenders = distinct_basins(&sols);
+        let polished: Vec<Solution> = {
+            use rayon::prelude::*;
+            contenders
+                .par_iter()
+                .map(|s| lsq::solve(&full, &s.x, opts.method, robust, &opts.limits))
+                .collect()
+        };
+        for s in &polished {
+            iterations += s.iterations;
+            evaluations += s.evaluations;
+        }
+        polished
+            .into_iter()
+            .min_by(|a, b| a.cost.total_cmp(&b.cost))
+            .expect("at least one candidate")
+    } else {
+        sols.swap_remove(0)
+    };
     if !sol.cost.is_finite() {
         return Err(fit_error(
             format!("channel {channel_label}: the fit found no point with a finite cost"),
@@ -668,9 +768,50 @@ fn fit_group(
             sol.termination
         ));
     }
+    let mut unusable = Vec::new();
+    let kkt_violation = match first_order(&full, &sol, robust, &var_names) {
+        (v, Some(why)) => {
+            unusable.push(why);
+            v
+        }
+        (v, None) => v,
+    };
+    for k in 0..nfree {
+        if theta[k] >= var_specs[k].absurd_above {
+            unusable.push(format!(
+                "{} = {} is not a physical value (≥ {})",
+                var_names[k],
+                readable(theta[k]),
+                readable(var_specs[k].absurd_above)
+            ));
+        }
+    }
+    let verification = (opts.verify > 0).then(|| {
+        let v = verify(
+            &full,
+            work,
+            &var_specs,
+            opts,
+            robust,
+            &refine_limits,
+            sol.cost,
+        );
+        evaluations += v.1;
+        v.0
+    });
+    if let Some(v) = &verification
+        && !v.verified
+    {
+        unusable.push(format!(
+            "verification: a random start reached cost {}, below this fit's {}",
+            readable(v.best_cost),
+            readable(sol.cost)
+        ));
+    }
     let (se, corr, singular) = statistics(&full, &sol, &theta, cost, m);
     let prof = full.subsample(1000);
     let mut ranges = Vec::new();
+    let mut at_bound = Vec::new();
     for k in 0..nfree {
         let name = &var_names[k];
         // The quadratic model of the cost gives the 1 % range in solver space,
@@ -693,24 +834,39 @@ fn fit_group(
         } else {
             profile_range(&prof, &sol.x, k, opts)
         };
-        let (lo, hi) = full.transforms[k].bounds();
-        let at_bound = full.transforms[k] != Transform::Square
-            && ((sol.x[k] - lo).abs() < 1e-6 || (sol.x[k] - hi).abs() < 1e-6);
+        let side = lsq::bound_side(sol.x[k], full.transforms[k].bounds());
+        if side != 0 {
+            let which = if side < 0 { "lower" } else { "upper" };
+            at_bound.push((name.clone(), which.to_string()));
+        }
+        // A shape parameter at the end of its box has run off (a linear one at 0 is an answer).
+        let ran_off = side != 0 && matches!(full.transforms[k].scale, Scale::Log { .. });
         let rel = se[k] / theta[k].abs().max(1e-300);
         // Weak: the 1 % range spans more than a factor 1.25, or reaches a bound.
         let wide = range.is_some_and(|(a, b)| !(b / a <= 1.25) || a == f64::NEG_INFINITY);
         if let Some((a, b)) = range {
             ranges.push((name.clone(), a, b));
         }
-        if !(rel <= 0.5) || singular[k] || at_bound || wide {
-            let why = if at_bound {
-                format!("{name} ran to the edge of its range ({:.4e})", theta[k])
+        if side != 0 && !ran_off {
+            warnings.push(format!(
+                "{name} = {} is at its {} bound",
+                readable(theta[k]),
+                if side < 0 { "lower" } else { "upper" }
+            ));
+        } else if !(rel <= 0.5) || singular[k] || ran_off || wide {
+            let why = if ran_off {
+                format!(
+                    "{name} ran to the edge of its range ({})",
+                    readable(theta[k])
+                )
             } else if singular[k] {
                 format!("{name} is not determined by the data (JᵀJ is near-singular in it)")
+            } else if !(rel <= 10.0) {
+                format!("{name} is not determined by the data (standard error over 10× the value)")
             } else if !(rel <= 0.5) {
                 format!(
-                    "{name} is not determined by the data (relative standard error {:.0} %)",
-                    100.0 * rel
+                    "{name} is not determined by the data (relative standard error {} %)",
+                    readable((100.0 * rel).round())
                 )
             } else {
                 format!("{name} is only weakly determined by the data")
@@ -789,7 +945,149 @@ fn fit_group(
         aic: loglike_term + 2.0 * kf,
         n_free: nfree,
         ranges,
+        at_bound,
+        kkt_violation,
+        verification,
+        unusable,
     })
+}
+
+/// Solutions of distinct basins (apart by more than 1e-3 in some solver variable, relative to
+/// its magnitude or 1) whose cost on `work` is within [`CONTENDER_RATIO`] of the
+/// best, best first, at most 3. `sols` is sorted by cost.
+fn distinct_basins(sols: &[Solution]) -> Vec<&Solution> {
+    let best = sols[0].cost;
+    let mut out: Vec<&Solution> = Vec::new();
+    for s in sols {
+        if out.len() == 3 || !(s.cost <= best * CONTENDER_RATIO) {
+            break;
+        }
+        let same = out.iter().any(|o| {
+            o.x.iter()
+                .zip(&s.x)
+                .all(|(a, b)| (a - b).abs() <= 1e-3 * a.abs().max(b.abs()).max(1.0))
+        });
+        if !same {
+            out.push(s);
+        }
+    }
+    out
+}
+
+/// Candidates whose subsample cost is within this factor of the best are polished on every
+/// row (a subsample ranks basins only to within its sampling noise).
+const CONTENDER_RATIO: f64 = 1.5;
+
+/// The first-order (KKT) conditions of the box-constrained problem at the solution, in solver
+/// variables: an interior variable has a scaled gradient |g_k| / (√(JᵀJ)_kk ‖r‖) near 0; one at
+/// a bound has its gradient pointing out of the box (only an inward part counts). Returns the
+/// largest violation and, when it exceeds [`KKT_TOLERANCE`], why.
+fn first_order(
+    p: &BrdfProblem,
+    sol: &Solution,
+    robust: Robust,
+    names: &[String],
+) -> (f64, Option<String>) {
+    let ne = match &sol.normal {
+        Some(n) => n.clone(),
+        None => match lsq::normal_equations(p, &sol.x, robust) {
+            Some(n) => n,
+            None => {
+                return (
+                    f64::INFINITY,
+                    Some("the cost is not finite at the fit".into()),
+                );
+            }
+        },
+    };
+    let dim = p.dim();
+    let norm = (2.0 * ne.cost).sqrt();
+    // An exact fit (rms residual below 1e-9) is optimal whatever its rounding-level gradient.
+    if norm <= 1e-9 * (p.n_residuals() as f64).sqrt() || dim == 0 {
+        return (0.0, None);
+    }
+    let bounds = p.bounds();
+    let mut worst = (0.0f64, None);
+    for k in 0..dim {
+        let d = ne.jtj[k * dim + k].sqrt();
+        if d == 0.0 {
+            continue;
+        }
+        let g = ne.jtr[k] / (d * norm);
+        let side = lsq::bound_side(sol.x[k], bounds[k]);
+        let v = match side {
+            -1 => (-g).max(0.0),
+            1 => g.max(0.0),
+            _ => g.abs(),
+        };
+        if v > worst.0 {
+            worst = (v, Some((k, side)));
+        }
+    }
+    let why = worst.1.filter(|_| worst.0 > KKT_TOLERANCE).map(|(k, side)| {
+        let at = match side {
+            -1 => " at its lower bound, pointing into the range",
+            1 => " at its upper bound, pointing into the range",
+            _ => "",
+        };
+        format!(
+            "first-order conditions fail: the cost gradient in {}{at} is {} (scaled; tolerance {})",
+            names[k],
+            readable(worst.0),
+            readable(KKT_TOLERANCE)
+        )
+    });
+    (worst.0, why)
+}
+
+/// `opts.verify` seeded random starts ([`random_start`]), each refined by the local method on
+/// `work` (the pipeline's subsample, or every row), the best three then polished on every row
+/// of `full`. Returns the certificate and the evaluations spent.
+fn verify(
+    full: &BrdfProblem,
+    work: &BrdfProblem,
+    specs: &[&ParamSpec],
+    opts: &FitOptions,
+    robust: Robust,
+    limits: &Limits,
+    cost: f64,
+) -> (Verification, usize) {
+    use rand::SeedableRng;
+    use rayon::prelude::*;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(opts.seed);
+    let starts: Vec<Vec<f64>> = (0..opts.verify)
+        .map(|_| random_start(full, specs, &mut rng))
+        .collect();
+    let mut sols: Vec<Solution> = starts
+        .par_iter()
+        .map(|x0| lsq::solve(work, x0, opts.method, Robust::None, limits))
+        .collect();
+    let mut evaluations: usize = sols.iter().map(|s| s.evaluations).sum();
+    sols.sort_by(|a, b| a.cost.total_cmp(&b.cost));
+    let same_rows = std::ptr::eq(full, work);
+    let polished: Vec<Solution> = if same_rows && robust == Robust::None {
+        sols.into_iter().take(1).collect()
+    } else {
+        sols.iter()
+            .take(3)
+            .collect::<Vec<_>>()
+            .par_iter()
+            .map(|s| lsq::solve(full, &s.x, opts.method, robust, &opts.limits))
+            .collect()
+    };
+    evaluations += polished.iter().map(|s| s.evaluations).sum::<usize>();
+    let best_cost = polished
+        .iter()
+        .map(|s| s.cost)
+        .fold(f64::INFINITY, f64::min);
+    (
+        Verification {
+            starts: opts.verify,
+            best_cost,
+            verified: !(best_cost < cost * (1.0 - SAME_MINIMUM)),
+        },
+        evaluations,
+    )
 }
 
 /// Robust threshold from the residuals at `x`: 1.345 · 1.4826 · median |r|.
@@ -805,25 +1103,39 @@ fn robust_scale(p: &BrdfProblem, x: &[f64]) -> f64 {
     (1.345 * 1.4826 * med).max(1e-12)
 }
 
-/// The default or user start as solver variables.
-fn start_vector(p: &BrdfProblem, var_names: &[String], start: &[(String, f64)]) -> Vec<f64> {
-    var_names
-        .iter()
-        .enumerate()
-        .map(|(k, name)| {
-            let base = name.split('_').next().unwrap_or(name);
+/// The default or user start as solver variables (a per-channel variable `ps_r` takes a
+/// start given for `ps_r` or for `ps`).
+fn start_vector(
+    p: &BrdfProblem,
+    specs: &[&ParamSpec],
+    var_names: &[String],
+    start: &[(String, f64)],
+) -> Vec<f64> {
+    (0..specs.len())
+        .map(|k| {
             let v = start
                 .iter()
                 .rev()
-                .find(|(n, _)| n == base || n == name)
-                .map(|(_, v)| *v)
-                .unwrap_or(match base {
-                    "n" => 1.5,
-                    "c3" => 0.5,
-                    "c1" => 10.0,
-                    "c2" => 3.0,
-                    _ => 0.5,
-                });
+                .find(|(n, _)| n == specs[k].name || *n == var_names[k])
+                .map_or(specs[k].start, |(_, v)| *v);
+            p.transforms[k].invert(v)
+        })
+        .collect()
+}
+
+/// A random start in solver variables: each parameter drawn from its declared
+/// [`ParamSpec::random`] range, log-uniformly when both ends are positive.
+pub fn random_start(p: &BrdfProblem, specs: &[&ParamSpec], rng: &mut impl rand::Rng) -> Vec<f64> {
+    specs
+        .iter()
+        .enumerate()
+        .map(|(k, s)| {
+            let (a, b) = s.random;
+            let v = if a > 0.0 {
+                (a.ln() + rng.random::<f64>() * (b / a).ln()).exp()
+            } else {
+                a + rng.random::<f64>() * (b - a)
+            };
             p.transforms[k].invert(v)
         })
         .collect()
@@ -844,37 +1156,58 @@ fn combine_sums([ss, s1, sf]: [f64; 3], k: [f64; 3], fixed: (f64, f64)) -> [f64;
     [ss, s1 * d, w1 * d * d, sy, y1 * d, yy]
 }
 
-/// [`basis_sums`] of Torrance–Sparrow's specular basis s = D(c)·F(n)·G/(π N·L N·E) at every
-/// point of a grid of n (`ns`) and the distribution's c (`cs`), n-major. The basis is a term
-/// in n alone times a term in c alone, so the sums over the rows are three matrix products
-/// (15 × m by m × 11 for the default grids) instead of a pass over the rows per grid point.
-fn ts_grid_sums(
-    rows: &Rows,
-    dist: Distribution,
-    ns: &[f64],
-    cs: &[f64],
-    w: &[f64],
-    wf: &[f64],
-) -> Vec<[f64; 3]> {
-    use nalgebra::DMatrix;
-    let m = rows.len();
-    let pi = std::f64::consts::FRAC_1_PI;
-    // a = F(n)·G/(π N·L N·E) and b = D(c), row by row.
-    let a = DMatrix::from_fn(ns.len(), m, |i, r| {
-        crate::model::fresnel(ns[i], rows.eh[r]) * rows.g_ne[r] * pi / rows.nl[r]
-    });
-    let b = DMatrix::from_fn(cs.len(), m, |j, r| dist.eval(rows.nh[r], cs[j]));
-    let wa2 = DMatrix::from_fn(ns.len(), m, |i, r| w[r] * a[(i, r)] * a[(i, r)]);
-    let wa = DMatrix::from_fn(ns.len(), m, |i, r| w[r] * a[(i, r)]);
-    let wfa = DMatrix::from_fn(ns.len(), m, |i, r| wf[r] * a[(i, r)]);
-    let bt = b.transpose();
-    let ss = wa2 * b.map(|x| x * x).transpose();
-    let s1 = wa * &bt;
-    let sf = wfa * &bt;
-    (0..ns.len())
-        .flat_map(|i| (0..cs.len()).map(move |j| (i, j)))
-        .map(|(i, j)| [ss[(i, j)], s1[(i, j)], sf[(i, j)]])
-        .collect()
+/// Torrance–Sparrow's specular basis s = D(c)·F(n)·G/(π N·L N·E) at every point of a grid of
+/// n (`ns`) and the distribution's c (`cs`) is a term in n alone times a term in c alone:
+/// rows of `a` (F(n)·G/(π N·L N·E), one per n) times rows of `b` (D(c), one per c).
+struct TsFactors {
+    a: nalgebra::DMatrix<f64>,
+    b: nalgebra::DMatrix<f64>,
+}
+
+impl TsFactors {
+    fn new(rows: &Rows, dist: Distribution, ns: &[f64], cs: &[f64]) -> Self {
+        use nalgebra::DMatrix;
+        let m = rows.len();
+        let pi = std::f64::consts::FRAC_1_PI;
+        TsFactors {
+            a: DMatrix::from_fn(ns.len(), m, |i, r| {
+                crate::model::fresnel(ns[i], rows.eh[r]) * rows.g_ne[r] * pi / rows.nl[r]
+            }),
+            b: DMatrix::from_fn(cs.len(), m, |j, r| dist.eval(rows.nh[r], cs[j])),
+        }
+    }
+
+    /// [`basis_sums`] at every grid point, n-major: three matrix products (17 × m by m × 19
+    /// for the default grids) instead of a pass over the rows per grid point.
+    fn grid_sums(&self, w: &[f64], wf: &[f64]) -> Vec<[f64; 3]> {
+        use nalgebra::DMatrix;
+        let (a, b) = (&self.a, &self.b);
+        let (ni, m) = a.shape();
+        let wa2 = DMatrix::from_fn(ni, m, |i, r| w[r] * a[(i, r)] * a[(i, r)]);
+        let wa = DMatrix::from_fn(ni, m, |i, r| w[r] * a[(i, r)]);
+        let wfa = DMatrix::from_fn(ni, m, |i, r| wf[r] * a[(i, r)]);
+        let bt = b.transpose();
+        let ss = wa2 * b.map(|x| x * x).transpose();
+        let s1 = wa * &bt;
+        let sf = wfa * &bt;
+        let nc = b.nrows();
+        (0..ni)
+            .flat_map(|i| (0..nc).map(move |j| (i, j)))
+            .map(|(i, j)| [ss[(i, j)], s1[(i, j)], sf[(i, j)]])
+            .collect()
+    }
+
+    /// The basis at grid point `index` (n-major), row by row.
+    fn basis(&self, index: usize) -> Vec<f64> {
+        let nc = self.b.nrows();
+        let (i, j) = (index / nc, index % nc);
+        self.a
+            .row(i)
+            .iter()
+            .zip(self.b.row(j).iter())
+            .map(|(x, y)| x * y)
+            .collect()
+    }
 }
 
 /// [Σw, Σwf, Σwf²] of rows with weights w and data f.
@@ -934,26 +1267,140 @@ fn basis_sums_body(s: &[f64], w: &[f64], wf: &[f64]) -> [f64; 3] {
     [a0, a1, a2].map(|a| a.iter().sum())
 }
 
-/// Variable projection over a grid of the nonlinear parameters: at each grid point the free
-/// ps and pd of each channel come from a weighted linear least-squares solve (weights that
-/// linearise the log loss), clipped to ≥ 0; grid points are ranked by that linearised cost
-/// (it needs no logarithm, and ranks the real data sets' basins as the log loss does), and the
-/// best three are returned as solver variables.
-fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> Vec<Vec<f64>> {
-    let p = full.subsample(500);
+/// One pass of the declared loss over rows `range` for model values f = a·s + b (s the
+/// basis): ½ Σ r² with r = sw (ℓ(f) − target), and the normal equations of (a, b):
+/// [JᵀJ_aa, JᵀJ_ab, JᵀJ_bb] and [Jᵀr_a, Jᵀr_b]. Eight rows at a time with the lane logarithm.
+fn linear_pass(
+    rows: &Rows,
+    range: std::ops::Range<usize>,
+    s: &[f64],
+    (a, b): (f64, f64),
+    loss: Loss,
+) -> (f64, [f64; 3], [f64; 2]) {
+    let mut acc = [[0.0f64; LANES]; 6];
+    let sw = |i: usize| rows.sw.get(i).copied().unwrap_or(1.0);
+    let mut i = range.start;
+    while i < range.end {
+        let len = (range.end - i).min(LANES);
+        let k = |l: usize| i + l.min(len - 1);
+        let f: [f64; LANES] = std::array::from_fn(|l| a * s[k(l) - range.start] + b);
+        let (v, dv): ([f64; LANES], [f64; LANES]) = match loss {
+            Loss::Log => {
+                let y: [f64; LANES] = std::array::from_fn(|l| rows.nl[k(l)] * f[l]);
+                let (v, iu) = lanes::ln_1p(&y);
+                (v, std::array::from_fn(|l| rows.nl[k(l)] * iu[l]))
+            }
+            Loss::Linear => (f, [1.0; LANES]),
+        };
+        for l in 0..len {
+            let w = sw(i + l);
+            let r = w * (v[l] - rows.target[i + l]);
+            let jb = w * dv[l];
+            let ja = jb * s[i + l - range.start];
+            acc[0][l] += 0.5 * r * r;
+            acc[1][l] += ja * ja;
+            acc[2][l] += ja * jb;
+            acc[3][l] += jb * jb;
+            acc[4][l] += ja * r;
+            acc[5][l] += jb * r;
+        }
+        i += len;
+    }
+    let t = acc.map(|a| a.iter().sum::<f64>());
+    (t[0], [t[1], t[2], t[3]], [t[4], t[5]])
+}
+
+/// Minimise the declared loss over the linear coefficients (a, b) of f = a·s + b from a
+/// start, by a few projected Gauss–Newton steps; `free` says which may move and `lo` is
+/// each one's lower bound. Returns the cost and (a, b).
+fn refine_linear(
+    rows: &Rows,
+    range: std::ops::Range<usize>,
+    s: &[f64],
+    start: (f64, f64),
+    free: (bool, bool),
+    lo: (f64, f64),
+    loss: Loss,
+) -> (f64, (f64, f64)) {
+    let mut x = start;
+    let (mut cost, mut jtj, mut jtr) = linear_pass(rows, range.clone(), s, x, loss);
+    if loss == Loss::Linear {
+        return (cost, x);
+    }
+    for _ in 0..LINEAR_STEPS {
+        let ridge = 1e-9;
+        let (da, db) = match free {
+            (true, true) => {
+                let (p, q, r) = (jtj[0] * (1.0 + ridge), jtj[1], jtj[2] * (1.0 + ridge));
+                let det = p * r - q * q;
+                if !(det > 0.0) {
+                    break;
+                }
+                (
+                    -(r * jtr[0] - q * jtr[1]) / det,
+                    -(p * jtr[1] - q * jtr[0]) / det,
+                )
+            }
+            (true, false) if jtj[0] > 0.0 => (-jtr[0] / jtj[0], 0.0),
+            (false, true) if jtj[2] > 0.0 => (0.0, -jtr[1] / jtj[2]),
+            _ => break,
+        };
+        let mut step = 1.0;
+        let mut accepted = false;
+        for _ in 0..3 {
+            let xn = ((x.0 + step * da).max(lo.0), (x.1 + step * db).max(lo.1));
+            let (cn, jn, gn) = linear_pass(rows, range.clone(), s, xn, loss);
+            if cn < cost {
+                (x, cost, jtj, jtr) = (xn, cn, jn, gn);
+                accepted = true;
+                break;
+            }
+            step *= 0.25;
+        }
+        if !accepted {
+            break;
+        }
+    }
+    (cost, x)
+}
+
+/// Gauss–Newton steps on the linear coefficients at each grid point.
+const LINEAR_STEPS: usize = 3;
+
+/// Rows per channel the global initialisation scores its grid on.
+const INIT_ROWS: usize = 500;
+
+/// How many candidates of distinct basins the global initialisation hands to the local method.
+const CANDIDATES: usize = 4;
+
+/// Variable projection over a grid of the nonlinear parameters that spans each one's whole
+/// admissible range ([`crate::model::ParamSpec::grid`]): at each grid point the free ps and pd
+/// of each channel come from a weighted linear least-squares solve (weights that linearise
+/// the loss at the data), clipped to ≥ 0; each point is then scored on the *declared* loss at
+/// those (ps, pd), so a basin ranks by the cost the fit minimises, not by its linearisation.
+/// The grid's local minima (distinct basins) are returned best first, at most [`CANDIDATES`],
+/// as solver variables.
+fn global_init(full: &BrdfProblem, specs: &[&ParamSpec], opts: &FitOptions) -> Vec<Vec<f64>> {
+    let p = full.subsample(INIT_ROWS);
     let nfree = p.transforms.len();
     let kind = opts.kind;
     let names = kind.param_names(opts.dist);
     let ips = linear_index(kind, "ps");
     let ipd = linear_index(kind, "pd").expect("every model has pd");
-    // Nonlinear free variables and their grids.
-    let nonlinear: Vec<(usize, Vec<f64>)> = (0..nfree)
+    // Nonlinear free variables and their grids (thinned if their product is too large, as
+    // for a joint fit with per-channel shape parameters).
+    let mut nonlinear: Vec<(usize, Vec<f64>)> = (0..nfree)
         .filter_map(|k| {
-            let base = var_names[k].split('_').next().unwrap_or("");
-            let g = init_grid(base, opts.dist);
+            let g = specs[k].grid_values();
             (!g.is_empty()).then_some((k, g))
         })
         .collect();
+    while nonlinear.iter().map(|(_, g)| g.len()).product::<usize>() > 4096 {
+        for (_, g) in nonlinear.iter_mut() {
+            *g = g.iter().step_by(2).copied().collect();
+        }
+    }
+    let dims: Vec<usize> = nonlinear.iter().map(|(_, g)| g.len()).collect();
     let mut points: Vec<Vec<f64>> = vec![vec![]];
     for (_, g) in &nonlinear {
         points = points
@@ -996,11 +1443,12 @@ fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> V
         && p.layout.len() == 1
         && ips.is_some()
         && nonlinear.len() == 2
-        && var_names[nonlinear[0].0] == names[0]
-        && var_names[nonlinear[1].0] == names[1])
+        && specs[nonlinear[0].0].name == names[0]
+        && specs[nonlinear[1].0].name == names[1])
         .then(|| {
-            let (ns, cs) = (&nonlinear[0].1, &nonlinear[1].1);
-            ts_grid_sums(&p.rows, opts.dist, ns, cs, &wdata, &wf)
+            let f = TsFactors::new(&p.rows, opts.dist, &nonlinear[0].1, &nonlinear[1].1);
+            let table = f.grid_sums(&wdata, &wf);
+            (f, table)
         });
     let score_point = |(index, pt): (usize, &Vec<f64>)| {
         // Natural values of all free variables at this grid point (linear ones solved).
@@ -1033,17 +1481,16 @@ fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> V
                 Slot::Fixed(v) => Some(v),
                 _ => None,
             };
-            let raw = match &separable {
-                Some(table) => table[index],
-                None => {
-                    let basis = match ips {
-                        Some(_) => problem::brdf_values(&spec_model, &p.rows, rows.clone()),
-                        None => vec![0.0; rows.len()],
-                    };
-                    basis_sums(&basis, &wdata[rows.clone()], &wf[rows])
-                }
+            let basis = match (&separable, ips) {
+                (Some((f, _)), _) => f.basis(index),
+                (None, Some(_)) => problem::brdf_values(&spec_model, &p.rows, rows.clone()),
+                (None, None) => vec![0.0; rows.len()],
             };
-            let [a11, a12, a22, b1, b2, yy] = combine_sums(
+            let raw = match &separable {
+                Some((_, table)) => table[index],
+                None => basis_sums(&basis, &wdata[rows.clone()], &wf[rows.clone()]),
+            };
+            let [a11, a12, a22, b1, b2, _] = combine_sums(
                 raw,
                 free_sums[c],
                 (fixed_ps.unwrap_or(0.0), fixed_pd.unwrap_or(0.0)),
@@ -1074,9 +1521,20 @@ fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> V
                 (false, true) => (0.0, solve1(a22, b2)),
                 (false, false) => (0.0, 0.0),
             };
-            // The linearised cost at the solved (ps, pd): Σ w (y − ps s − pd/π)².
-            score += yy + a11 * ps * ps + 2.0 * a12 * ps * pd + a22 * pd * pd
-                - 2.0 * (b1 * ps + b2 * pd);
+            // The declared loss, minimised over (ps, pd) from the linear solve.
+            let pi = std::f64::consts::FRAC_1_PI;
+            let (fps, fpd) = (fixed_ps.unwrap_or(0.0), fixed_pd.unwrap_or(0.0) * pi);
+            let (cost, (a, b)) = refine_linear(
+                &p.rows,
+                rows,
+                &basis,
+                (ps + fps, pd * pi + fpd),
+                (free_ps, free_pd),
+                (fps, fpd),
+                opts.loss,
+            );
+            score += cost;
+            let (ps, pd) = (a - fps, (b - fpd) / pi);
             if let (Some(i), true) = (ips, free_ps)
                 && let Slot::Free(k) = slots[i]
             {
@@ -1089,34 +1547,68 @@ fn global_init(full: &BrdfProblem, var_names: &[String], opts: &FitOptions) -> V
         let x: Vec<f64> = (0..nfree)
             .map(|k| p.transforms[k].invert(theta[k]))
             .collect();
-        score.is_finite().then_some((score, x))
+        Some((
+            if score.is_finite() {
+                score
+            } else {
+                f64::INFINITY
+            },
+            x,
+        ))
     };
-    // With the sums tabulated a point costs a 2 × 2 solve: no thread pool then.
     use rayon::prelude::*;
-    let mut scored: Vec<(f64, Vec<f64>)> = if separable.is_some() {
-        points.iter().enumerate().filter_map(score_point).collect()
-    } else {
-        points
-            .par_iter()
-            .enumerate()
-            .filter_map(score_point)
-            .collect()
+    let scored: Vec<(f64, Vec<f64>)> = points
+        .par_iter()
+        .enumerate()
+        .filter_map(score_point)
+        .collect();
+    grid_minima(&scored, &dims)
+}
+
+/// The local minima of a score tabulated on a grid (row-major over `dims`; a point is a
+/// minimum when no neighbour along any axis scores lower), best first, at most [`CANDIDATES`];
+/// if there are fewer, the best other points not next to a kept one fill up.
+fn grid_minima(scored: &[(f64, Vec<f64>)], dims: &[usize]) -> Vec<Vec<f64>> {
+    let strides: Vec<usize> = (0..dims.len())
+        .map(|d| dims[d + 1..].iter().product())
+        .collect();
+    let coord = |i: usize, d: usize| (i / strides[d]) % dims[d];
+    let neighbours = |i: usize| {
+        let mut v = Vec::new();
+        for d in 0..dims.len() {
+            let c = coord(i, d);
+            if c > 0 {
+                v.push(i - strides[d]);
+            }
+            if c + 1 < dims[d] {
+                v.push(i + strides[d]);
+            }
+        }
+        v
     };
-    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-    // Keep three candidates, skipping near-duplicates of ones already kept.
-    let mut out: Vec<Vec<f64>> = Vec::new();
-    for (_, x) in scored {
-        if out.len() == 3 {
+    let mut order: Vec<usize> = (0..scored.len())
+        .filter(|&i| scored[i].0.is_finite())
+        .collect();
+    order.sort_by(|&a, &b| scored[a].0.total_cmp(&scored[b].0).then(a.cmp(&b)));
+    let is_min = |i: usize| neighbours(i).iter().all(|&j| scored[i].0 <= scored[j].0);
+    let mut kept: Vec<usize> = order
+        .iter()
+        .copied()
+        .filter(|&i| is_min(i))
+        .take(CANDIDATES)
+        .collect();
+    for &i in &order {
+        if kept.len() >= CANDIDATES.min(2) {
             break;
         }
-        if out
+        let near = kept
             .iter()
-            .all(|y| y.iter().zip(&x).any(|(a, b)| (a - b).abs() > 0.3))
-        {
-            out.push(x);
+            .any(|&k| (0..dims.len()).all(|d| coord(i, d).abs_diff(coord(k, d)) <= 1));
+        if !near {
+            kept.push(i);
         }
     }
-    out
+    kept.into_iter().map(|i| scored[i].1.clone()).collect()
 }
 
 /// Standard errors, correlations and per-parameter near-singularity flags from JᵀJ in natural
@@ -1210,9 +1702,9 @@ fn statistics(
 pub fn describe_range(name: &str, (lo, hi): (f64, f64)) -> String {
     let what = match (lo == f64::NEG_INFINITY, hi == f64::INFINITY) {
         (true, true) => format!("any {name}"),
-        (true, false) => format!("{name} ≤ {hi:.4}"),
-        (false, true) => format!("{name} ≥ {lo:.4}"),
-        (false, false) => format!("{name} in [{lo:.4}, {hi:.4}]"),
+        (true, false) => format!("{name} ≤ {}", readable(hi)),
+        (false, true) => format!("{name} ≥ {}", readable(lo)),
+        (false, false) => format!("{name} in [{}, {}]", readable(lo), readable(hi)),
     };
     format!("{what} fits within 1 % of the minimum cost")
 }
@@ -1301,23 +1793,34 @@ pub fn all_models() -> Vec<(ModelKind, Distribution)> {
     ]
 }
 
-/// Rank fits of one channel by BIC; returns the order and the index of the recommended model:
-/// the one with the fewest free parameters within 2 BIC of the best.
-pub fn rank(fits: &[FitResult]) -> (Vec<usize>, usize) {
+/// Rank fits of one channel by BIC, usable fits first (a fit marked not usable is never
+/// recommended); returns the order and the index of the recommended model: the usable one with
+/// the fewest free parameters within 2 BIC of the best usable one (`None` if none is usable).
+pub fn rank(fits: &[FitResult]) -> (Vec<usize>, Option<usize>) {
     let mut order: Vec<usize> = (0..fits.len()).collect();
-    order.sort_by(|&a, &b| fits[a].bic.total_cmp(&fits[b].bic));
-    let best = fits[order[0]].bic;
-    let rec = order
+    order.sort_by(|&a, &b| {
+        (!fits[a].usable())
+            .cmp(&!fits[b].usable())
+            .then(fits[a].bic.total_cmp(&fits[b].bic))
+    });
+    let usable: Vec<usize> = order
         .iter()
         .copied()
-        .filter(|&i| fits[i].bic <= best + 2.0)
-        .min_by(|&a, &b| {
-            fits[a]
-                .n_free
-                .cmp(&fits[b].n_free)
-                .then(fits[a].bic.total_cmp(&fits[b].bic))
-        })
-        .unwrap_or(order[0]);
+        .filter(|&i| fits[i].usable())
+        .collect();
+    let rec = usable.first().and_then(|&b| {
+        let best = fits[b].bic;
+        usable
+            .iter()
+            .copied()
+            .filter(|&i| fits[i].bic <= best + 2.0)
+            .min_by(|&a, &b| {
+                fits[a]
+                    .n_free
+                    .cmp(&fits[b].n_free)
+                    .then(fits[a].bic.total_cmp(&fits[b].bic))
+            })
+    });
     (order, rec)
 }
 
@@ -1334,12 +1837,18 @@ pub fn format_fit(f: &FitResult) -> String {
         f.method.name(),
         f.samples_used
     );
-    let _ = writeln!(s, "  {:<8} {:>14} {:>12}", "param", "value", "std. error");
+    let _ = writeln!(s, "  {:<8} {:>14} {:>14}", "param", "value", "std. error");
     for (((n, v), se), free) in f.params.iter().zip(&f.stderr).zip(&f.free) {
+        let value = readable(*v);
         if *free {
-            let _ = writeln!(s, "  {n:<8} {v:>14.6} {se:>12.3e}");
+            let se = if se.is_finite() && (*se <= 10.0 * v.abs() || *v == 0.0) {
+                format!("{se:.3e}")
+            } else {
+                "not determined".into()
+            };
+            let _ = writeln!(s, "  {n:<8} {value:>14} {se:>14}");
         } else {
-            let _ = writeln!(s, "  {n:<8} {v:>14.6} {:>12}", "(fixed)");
+            let _ = writeln!(s, "  {n:<8} {value:>14} {:>14}", "(fixed)");
         }
     }
     let _ = writeln!(
@@ -1353,6 +1862,22 @@ pub fn format_fit(f: &FitResult) -> String {
     }
     for w in &f.warnings {
         let _ = writeln!(s, "  warning: {w}");
+    }
+    if let Some(v) = &f.verification {
+        let _ = writeln!(
+            s,
+            "  verification: {} random starts, best cost {:.6e}: {}",
+            v.starts,
+            v.best_cost,
+            if v.verified {
+                "none ended lower"
+            } else {
+                "one ended lower"
+            }
+        );
+    }
+    for why in &f.unusable {
+        let _ = writeln!(s, "  NOT USABLE: {why}");
     }
     s
 }
@@ -1370,21 +1895,30 @@ pub fn format_ranking(fits: &[FitResult]) -> String {
     let best = fits[order[0]].bic;
     for &i in &order {
         let f = &fits[i];
-        let mark = if i == rec {
-            "  ← simplest the data support"
+        let mark = if Some(i) == rec {
+            "  ← simplest the data support".to_string()
+        } else if !f.usable() {
+            format!("  not usable: {}", f.unusable.join("; "))
         } else {
-            ""
+            String::new()
+        };
+        let dbic = if f.usable() {
+            format!("{:>9.1}", f.bic - best)
+        } else {
+            format!("{:>9}", "—")
         };
         let _ = writeln!(
             s,
-            "  {:<26} {:>3} {:>13.6e} {:>12.1} {:>12.1} {:>9.1}{mark}",
+            "  {:<26} {:>3} {:>13.6e} {:>12.1} {:>12.1} {dbic}{mark}",
             f.label(),
             f.n_free,
             f.cost,
             f.aic,
             f.bic,
-            f.bic - best
         );
+    }
+    if rec.is_none() {
+        let _ = writeln!(s, "  no fit is usable, so no model is recommended");
     }
     s
 }
@@ -1465,9 +1999,10 @@ mod tests {
         let w: Vec<f64> = (0..m).map(|i| 0.5 + (i % 7) as f64 / 7.0).collect();
         let wf: Vec<f64> = (0..m).map(|i| w[i] * (0.2 + (i % 5) as f64)).collect();
         for dist in [Distribution::D3, Distribution::D1] {
-            let cname = ModelKind::TorranceSparrow.param_names(dist)[1];
-            let (ns, cs) = (init_grid("n", dist), init_grid(cname, dist));
-            let table = ts_grid_sums(&rows, dist, &ns, &cs, &w, &wf);
+            let specs = ModelKind::TorranceSparrow.params(dist);
+            let (ns, cs) = (specs[0].grid_values(), specs[1].grid_values());
+            let factors = TsFactors::new(&rows, dist, &ns, &cs);
+            let table = factors.grid_sums(&w, &wf);
             assert_eq!(table.len(), ns.len() * cs.len());
             for (i, n) in ns.iter().enumerate() {
                 for (j, c) in cs.iter().enumerate() {
@@ -1475,7 +2010,14 @@ mod tests {
                         Model::new(ModelKind::TorranceSparrow, dist, &[*n, *c, 1.0, 0.0]).unwrap();
                     let basis = problem::brdf_values(&model, &rows, 0..m);
                     let want = basis_sums(&basis, &w, &wf);
-                    let got = table[i * cs.len() + j];
+                    let index = i * cs.len() + j;
+                    let got = table[index];
+                    for (r, (a, b)) in factors.basis(index).iter().zip(&basis).enumerate() {
+                        assert!(
+                            (a - b).abs() <= 1e-12 * b.abs().max(1e-300),
+                            "row {r}: {a} vs {b}"
+                        );
+                    }
                     for k in 0..3 {
                         let tol = 1e-10 * want[k].abs().max(1e-300);
                         assert!(

@@ -3,7 +3,7 @@
 
 use super::lsq::{Normal, Problem, Robust};
 use crate::lanes::{self, LANES};
-use crate::model::{Distribution, Geometry, Model, ModelKind, f0_from_n};
+use crate::model::{Distribution, Geometry, Model, ModelKind, ParamSpec, Scale};
 
 /// Which residual the fit minimises (½ Σ r²).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -43,88 +43,74 @@ impl Loss {
     }
 }
 
-/// How a free solver variable u maps to a model parameter θ (bounds by construction).
+/// How a free solver variable u maps to a model parameter θ, and the box u lives in.
+///
+/// Made from a parameter's [`ParamSpec`]: linear parameters (ps, pd) are solver variables
+/// themselves, boxed by their bounds (a bound-constrained solver lets them reach and leave 0);
+/// shape parameters are fitted on a log scale, θ = offset + e^u, whose derivative never vanishes.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Transform {
-    /// θ = u (for statistics in natural parameters).
-    Identity,
-    /// n = (1 + √F0)/(1 − √F0) with F0 = 1/(1 + e^−u) ∈ (0, 1): n > 1.
-    IndexViaF0,
-    /// θ = 1/(1 + e^−u) ∈ (0, 1) (for c3).
-    Logistic,
-    /// θ = e^u > 0 (for c1, c2).
-    Exp,
-    /// θ = u², u ≥ 0 (for ps, pd: θ ≥ 0, reaching 0).
-    Square,
-}
-
-fn logistic(u: f64) -> f64 {
-    1.0 / (1.0 + (-u).exp())
+pub struct Transform {
+    /// The mapping.
+    pub scale: Scale,
+    /// Lower bound of θ.
+    pub lo: f64,
+    /// Upper bound of θ.
+    pub hi: f64,
 }
 
 impl Transform {
-    /// The transform used for a parameter name.
-    pub fn for_param(name: &str) -> Self {
-        match name {
-            "n" => Transform::IndexViaF0,
-            "c3" => Transform::Logistic,
-            "c1" | "c2" => Transform::Exp,
-            _ => Transform::Square,
+    /// θ = u without bounds (for statistics in natural parameters).
+    pub const IDENTITY: Transform = Transform {
+        scale: Scale::Linear,
+        lo: f64::NEG_INFINITY,
+        hi: f64::INFINITY,
+    };
+
+    /// The transform of a declared parameter.
+    pub fn of(spec: &ParamSpec) -> Self {
+        Transform {
+            scale: spec.scale,
+            lo: spec.lo,
+            hi: spec.hi,
         }
     }
 
     /// θ(u) and dθ/du.
     #[inline]
     pub fn apply(self, u: f64) -> (f64, f64) {
-        match self {
-            Transform::Identity => (u, 1.0),
-            Transform::IndexViaF0 => {
-                let f0 = logistic(u);
-                let s = f0.sqrt();
-                ((1.0 + s) / (1.0 - s), s * (1.0 + s) / (1.0 - s))
-            }
-            Transform::Logistic => {
-                let t = logistic(u);
-                (t, t * (1.0 - t))
-            }
-            Transform::Exp => {
+        match self.scale {
+            Scale::Linear => (u, 1.0),
+            Scale::Log { offset } => {
                 let e = u.exp();
-                (e, e)
+                (offset + e, e)
             }
-            Transform::Square => (u * u, 2.0 * u),
         }
     }
 
-    /// u(θ), the inverse, with θ first brought inside the open domain.
+    /// u(θ), the inverse, with θ first brought inside the bounds.
     pub fn invert(self, v: f64) -> f64 {
         let (lo, hi) = self.bounds();
-        let u = match self {
-            Transform::Identity => v,
-            Transform::IndexViaF0 => {
-                let f0 = f0_from_n(v.max(1.0 + 1e-9)).clamp(1e-12, 1.0 - 1e-12);
-                (f0 / (1.0 - f0)).ln()
-            }
-            Transform::Logistic => {
-                let t = v.clamp(1e-9, 1.0 - 1e-9);
-                (t / (1.0 - t)).ln()
-            }
-            Transform::Exp => v.max(1e-300).ln(),
-            Transform::Square => v.max(0.0).sqrt().max(1e-4),
+        let u = match self.scale {
+            Scale::Linear => v,
+            Scale::Log { offset } => (v - offset).max(1e-300).ln(),
         };
         u.clamp(lo, hi)
     }
 
-    /// Box on u that keeps θ finite and the gradient alive.
+    /// The box on u.
     pub fn bounds(self) -> (f64, f64) {
-        match self {
-            Transform::Identity => (f64::NEG_INFINITY, f64::INFINITY),
-            // F0 ∈ [2e-9, 1 − 1.1e-7]: n ∈ [1.0001, 3.6e7].
-            Transform::IndexViaF0 => (-20.0, 16.0),
-            // c3 ∈ [6e-6, 0.999994].
-            Transform::Logistic => (-12.0, 12.0),
-            // c ∈ [1e-3, 1e6].
-            Transform::Exp => (-6.9, 13.8),
-            Transform::Square => (0.0, 1e4),
+        match self.scale {
+            Scale::Linear => (self.lo, self.hi),
+            Scale::Log { offset } => ((self.lo - offset).ln(), (self.hi - offset).ln()),
+        }
+    }
+
+    /// A step u may always take in one Levenberg–Marquardt iteration: 1 on a log scale (a
+    /// factor e), 0 on a linear one (purely relative).
+    pub fn step_scale(self) -> f64 {
+        match self.scale {
+            Scale::Linear => 0.0,
+            Scale::Log { .. } => 1.0,
         }
     }
 }
@@ -395,7 +381,7 @@ impl BrdfProblem {
     /// The same problem in natural parameters θ (identity transforms), for statistics.
     pub fn natural(&self) -> BrdfProblem {
         BrdfProblem {
-            transforms: vec![Transform::Identity; self.transforms.len()],
+            transforms: vec![Transform::IDENTITY; self.transforms.len()],
             ..self.clone()
         }
     }
@@ -521,13 +507,7 @@ impl Problem for BrdfProblem {
     /// Logit and log variables may move by 1 per step (a factor e in the odds or the value),
     /// whatever their size; near u = 0 (c3 = ½, say) a relative bound alone would crawl.
     fn step_scale(&self) -> Vec<f64> {
-        self.transforms
-            .iter()
-            .map(|t| match t {
-                Transform::IndexViaF0 | Transform::Logistic | Transform::Exp => 1.0,
-                Transform::Identity | Transform::Square => 0.0,
-            })
-            .collect()
+        self.transforms.iter().map(|t| t.step_scale()).collect()
     }
 
     fn accumulate(
@@ -870,38 +850,6 @@ impl TsD3 {
         };
         let w = g_ne * std::f64::consts::FRAC_1_PI;
         (d * f * w, [d * df * w, dd * f * w])
-    }
-}
-
-/// Grid of candidate values for a nonlinear parameter in the global initialisation.
-pub fn init_grid(name: &str, dist: Distribution) -> Vec<f64> {
-    let _ = dist;
-    match name {
-        "n" => [
-            1e-3, 4e-3, 0.01, 0.02, 0.035, 0.05, 0.08, 0.12, 0.2, 0.35, 0.55, 0.75, 0.9, 0.97,
-            0.995,
-        ]
-        .iter()
-        .map(|&f0| crate::model::n_from_f0(f0))
-        .collect(),
-        "c3" => vec![
-            0.01, 0.03, 0.06, 0.1, 0.15, 0.22, 0.3, 0.4, 0.55, 0.75, 0.95,
-        ],
-        // Blinn's c(β) for half-angles 1°…60°, so the grids of D1 and D2 match D3's.
-        "c1" | "c2" => {
-            let d = if name == "c1" {
-                Distribution::D1
-            } else {
-                Distribution::D2
-            };
-            [
-                0.5, 1.0, 2.0, 3.0, 4.5, 6.0, 8.0, 11.0, 15.0, 20.0, 27.0, 35.0, 45.0, 60.0, 75.0,
-            ]
-            .iter()
-            .map(|deg: &f64| d.param_from_beta(deg.to_radians()))
-            .collect()
-        }
-        _ => vec![],
     }
 }
 
