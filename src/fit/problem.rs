@@ -386,19 +386,53 @@ impl BrdfProblem {
         }
     }
 
-    /// A problem on every `stride`-th row of each channel (deterministic subsample).
+    /// A problem on at most `max_rows_per_channel` rows of each channel (deterministic): the
+    /// tenth of them with the largest data terms (a sharp highlight's few peak samples, which a
+    /// stride would skip and which decide between basins), and every `stride`-th of the other
+    /// rows, weighted by the stride so the cost estimates the full cost.
     pub fn subsample(&self, max_rows_per_channel: usize) -> BrdfProblem {
-        let mut pick = Vec::new();
+        let mut pick: Vec<(usize, f64)> = Vec::new();
         let mut starts = vec![0];
         for c in 0..self.layout.len() {
             let (lo, hi) = (self.starts[c], self.starts[c + 1]);
-            let stride = (hi - lo).div_ceil(max_rows_per_channel).max(1);
-            pick.extend((lo..hi).step_by(stride));
+            if hi - lo <= max_rows_per_channel {
+                pick.extend((lo..hi).map(|i| (i, 1.0)));
+            } else {
+                let top = max_rows_per_channel / 10;
+                let mut order: Vec<usize> = (lo..hi).collect();
+                order.sort_by(|&a, &b| {
+                    self.rows.target[b]
+                        .total_cmp(&self.rows.target[a])
+                        .then(a.cmp(&b))
+                });
+                let mut peak = vec![false; hi - lo];
+                for &i in &order[..top] {
+                    peak[i - lo] = true;
+                }
+                let rest = hi - lo - top;
+                let stride = rest.div_ceil(max_rows_per_channel - top).max(1);
+                let kept: Vec<usize> = (lo..hi)
+                    .filter(|&i| !peak[i - lo])
+                    .step_by(stride)
+                    .collect();
+                let w = rest as f64 / kept.len() as f64;
+                let mut chosen: Vec<(usize, f64)> = kept.into_iter().map(|i| (i, w)).collect();
+                chosen.extend(order[..top].iter().map(|&i| (i, 1.0)));
+                chosen.sort_by_key(|&(i, _)| i);
+                pick.extend(chosen);
+            }
             starts.push(pick.len());
         }
-        // Column by column: each gather streams one column.
         let r = &self.rows;
-        let take = |v: &Vec<f64>| pick.iter().map(|&i| v[i]).collect::<Vec<f64>>();
+        let take = |v: &Vec<f64>| pick.iter().map(|&(i, _)| v[i]).collect::<Vec<f64>>();
+        let weighted = r.weighted || pick.iter().any(|&(_, w)| w != 1.0);
+        let sw = if weighted {
+            pick.iter()
+                .map(|&(i, w)| r.sw.get(i).copied().unwrap_or(1.0) * w.sqrt())
+                .collect()
+        } else {
+            Vec::new()
+        };
         let rows = Rows {
             nl: take(&r.nl),
             ne: take(&r.ne),
@@ -407,8 +441,8 @@ impl BrdfProblem {
             re: take(&r.re),
             g_ne: take(&r.g_ne),
             target: take(&r.target),
-            sw: if r.weighted { take(&r.sw) } else { Vec::new() },
-            weighted: r.weighted,
+            sw,
+            weighted,
         };
         BrdfProblem {
             rows: std::sync::Arc::new(rows),
