@@ -728,6 +728,7 @@ fn fit_group(
         // A subsample's cost tells basins apart only to within its sampling noise: every
         // distinct basin whose subsample cost is near the best is polished on every row.
         let contenders = distinct_basins(&sols);
+
         let polished: Vec<Solution> = {
             use rayon::prelude::*;
             contenders
@@ -1160,37 +1161,47 @@ fn combine_sums([ss, s1, sf]: [f64; 3], k: [f64; 3], fixed: (f64, f64)) -> [f64;
 /// n (`ns`) and the distribution's c (`cs`) is a term in n alone times a term in c alone:
 /// rows of `a` (F(n)·G/(π N·L N·E), one per n) times rows of `b` (D(c), one per c).
 struct TsFactors {
-    a: nalgebra::DMatrix<f64>,
-    b: nalgebra::DMatrix<f64>,
+    /// F(n)·G/(π N·L N·E), one row of m per n, row-major.
+    a: Vec<f64>,
+    /// D(c), one row of m per c, row-major.
+    b: Vec<f64>,
+    m: usize,
 }
 
 impl TsFactors {
     fn new(rows: &Rows, dist: Distribution, ns: &[f64], cs: &[f64]) -> Self {
-        use nalgebra::DMatrix;
         let m = rows.len();
         let pi = std::f64::consts::FRAC_1_PI;
-        TsFactors {
-            a: DMatrix::from_fn(ns.len(), m, |i, r| {
-                crate::model::fresnel(ns[i], rows.eh[r]) * rows.g_ne[r] * pi / rows.nl[r]
-            }),
-            b: DMatrix::from_fn(cs.len(), m, |j, r| dist.eval(rows.nh[r], cs[j])),
-        }
+        let geo: Vec<f64> = (0..m).map(|r| rows.g_ne[r] * pi / rows.nl[r]).collect();
+        let a = ns
+            .iter()
+            .flat_map(|&n| (0..m).map(move |r| crate::model::fresnel(n, rows.eh[r])))
+            .zip(geo.iter().cycle())
+            .map(|(f, g)| f * g)
+            .collect();
+        let b = cs
+            .iter()
+            .flat_map(|&c| (0..m).map(move |r| dist.eval(rows.nh[r], c)))
+            .collect();
+        TsFactors { a, b, m }
     }
 
     /// [`basis_sums`] at every grid point, n-major: three matrix products (17 × m by m × 19
     /// for the default grids) instead of a pass over the rows per grid point.
     fn grid_sums(&self, w: &[f64], wf: &[f64]) -> Vec<[f64; 3]> {
         use nalgebra::DMatrix;
-        let (a, b) = (&self.a, &self.b);
-        let (ni, m) = a.shape();
-        let wa2 = DMatrix::from_fn(ni, m, |i, r| w[r] * a[(i, r)] * a[(i, r)]);
-        let wa = DMatrix::from_fn(ni, m, |i, r| w[r] * a[(i, r)]);
-        let wfa = DMatrix::from_fn(ni, m, |i, r| wf[r] * a[(i, r)]);
-        let bt = b.transpose();
-        let ss = wa2 * b.map(|x| x * x).transpose();
+        let m = self.m;
+        let (ni, nc) = (self.a.len() / m, self.b.len() / m);
+        let rowm = |n: usize, f: &dyn Fn(usize) -> f64| DMatrix::from_fn(n, m, |i, r| f(i * m + r));
+        let a = &self.a;
+        let wa2 = rowm(ni, &|k| w[k % m] * a[k] * a[k]);
+        let wa = rowm(ni, &|k| w[k % m] * a[k]);
+        let wfa = rowm(ni, &|k| wf[k % m] * a[k]);
+        let bt = DMatrix::from_fn(m, nc, |r, j| self.b[j * m + r]);
+        let b2t = bt.map(|x| x * x);
+        let ss = wa2 * b2t;
         let s1 = wa * &bt;
         let sf = wfa * &bt;
-        let nc = b.nrows();
         (0..ni)
             .flat_map(|i| (0..nc).map(move |j| (i, j)))
             .map(|(i, j)| [ss[(i, j)], s1[(i, j)], sf[(i, j)]])
@@ -1198,15 +1209,13 @@ impl TsFactors {
     }
 
     /// The basis at grid point `index` (n-major), row by row.
-    fn basis(&self, index: usize) -> Vec<f64> {
-        let nc = self.b.nrows();
+    fn basis(&self, index: usize) -> Basis<'_> {
+        let (m, nc) = (self.m, self.b.len() / self.m);
         let (i, j) = (index / nc, index % nc);
-        self.a
-            .row(i)
-            .iter()
-            .zip(self.b.row(j).iter())
-            .map(|(x, y)| x * y)
-            .collect()
+        Basis {
+            a: &self.a[i * m..(i + 1) * m],
+            b: &self.b[j * m..(j + 1) * m],
+        }
     }
 }
 
@@ -1267,47 +1276,144 @@ fn basis_sums_body(s: &[f64], w: &[f64], wf: &[f64]) -> [f64; 3] {
     [a0, a1, a2].map(|a| a.iter().sum())
 }
 
+/// A specular basis s row by row, as the product of two factors (Torrance–Sparrow's term in
+/// n times its term in c, or the basis times ones), so no grid point allocates its basis.
+#[derive(Clone, Copy)]
+struct Basis<'a> {
+    a: &'a [f64],
+    b: &'a [f64],
+}
+
 /// One pass of the declared loss over rows `range` for model values f = a·s + b (s the
 /// basis): ½ Σ r² with r = sw (ℓ(f) − target), and the normal equations of (a, b):
-/// [JᵀJ_aa, JᵀJ_ab, JᵀJ_bb] and [Jᵀr_a, Jᵀr_b]. Eight rows at a time with the lane logarithm.
+/// [JᵀJ_aa, JᵀJ_ab, JᵀJ_bb] and [Jᵀr_a, Jᵀr_b].
 fn linear_pass(
     rows: &Rows,
     range: std::ops::Range<usize>,
-    s: &[f64],
-    (a, b): (f64, f64),
+    s: Basis,
+    ab: (f64, f64),
     loss: Loss,
 ) -> (f64, [f64; 3], [f64; 2]) {
-    let mut acc = [[0.0f64; LANES]; 6];
-    let sw = |i: usize| rows.sw.get(i).copied().unwrap_or(1.0);
-    let mut i = range.start;
-    while i < range.end {
-        let len = (range.end - i).min(LANES);
-        let k = |l: usize| i + l.min(len - 1);
-        let f: [f64; LANES] = std::array::from_fn(|l| a * s[k(l) - range.start] + b);
-        let (v, dv): ([f64; LANES], [f64; LANES]) = match loss {
-            Loss::Log => {
-                let y: [f64; LANES] = std::array::from_fn(|l| rows.nl[k(l)] * f[l]);
-                let (v, iu) = lanes::ln_1p(&y);
-                (v, std::array::from_fn(|l| rows.nl[k(l)] * iu[l]))
-            }
-            Loss::Linear => (f, [1.0; LANES]),
-        };
-        for l in 0..len {
-            let w = sw(i + l);
-            let r = w * (v[l] - rows.target[i + l]);
-            let jb = w * dv[l];
-            let ja = jb * s[i + l - range.start];
-            acc[0][l] += 0.5 * r * r;
-            acc[1][l] += ja * ja;
-            acc[2][l] += ja * jb;
-            acc[3][l] += jb * jb;
-            acc[4][l] += ja * r;
-            acc[5][l] += jb * r;
-        }
-        i += len;
-    }
-    let t = acc.map(|a| a.iter().sum::<f64>());
+    let sw = if rows.weighted() {
+        &rows.sw[range.clone()]
+    } else {
+        &[][..]
+    };
+    let t = match loss {
+        Loss::Log => linear_pass_log(
+            &rows.nl[range.clone()],
+            &rows.target[range.clone()],
+            sw,
+            s,
+            ab,
+        ),
+        Loss::Linear => linear_pass_linear(&rows.target[range], sw, s, ab),
+    };
     (t[0], [t[1], t[2], t[3]], [t[4], t[5]])
+}
+
+/// [`linear_pass`] for the log loss, eight rows at a time with the lane logarithm (`sw` empty =
+/// unweighted); the sums are added per lane, then in lane order.
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn linear_pass_log(nl: &[f64], tg: &[f64], sw: &[f64], s: Basis, ab: (f64, f64)) -> [f64; 6] {
+    linear_pass_log_body::<true>(nl, tg, sw, s, ab)
+}
+
+/// The cost alone of [`linear_pass_log`] (no Jacobian: no division per row).
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn linear_cost_log(nl: &[f64], tg: &[f64], sw: &[f64], s: Basis, ab: (f64, f64)) -> f64 {
+    linear_pass_log_body::<false>(nl, tg, sw, s, ab)[0]
+}
+
+#[inline(always)]
+fn linear_pass_log_body<const JAC: bool>(
+    nl: &[f64],
+    tg: &[f64],
+    sw: &[f64],
+    s: Basis,
+    ab: (f64, f64),
+) -> [f64; 6] {
+    let m = nl.len();
+    let mut acc = [[0.0f64; LANES]; 6];
+    let full = m / LANES * LANES;
+    let ones = [1.0f64; LANES];
+    let mut i = 0;
+    while i < full {
+        let get = |v: &[f64]| -> [f64; LANES] { v[i..i + LANES].try_into().expect("lane block") };
+        let w = if sw.is_empty() { ones } else { get(sw) };
+        let (sa, sb) = (get(s.a), get(s.b));
+        let sv = std::array::from_fn(|l| sa[l] * sb[l]);
+        linear_block::<JAC>(&get(nl), &get(tg), &w, &sv, ab, &mut acc);
+        i += LANES;
+    }
+    if i < m {
+        // The last block: lanes past the end have weight 0.
+        let len = m - i;
+        let pad = |v: &[f64]| -> [f64; LANES] { std::array::from_fn(|l| v[i + l.min(len - 1)]) };
+        let w: [f64; LANES] = std::array::from_fn(|l| match (l < len, sw.is_empty()) {
+            (false, _) => 0.0,
+            (true, true) => 1.0,
+            (true, false) => sw[i + l],
+        });
+        let (sa, sb) = (pad(s.a), pad(s.b));
+        let sv = std::array::from_fn(|l| sa[l] * sb[l]);
+        linear_block::<JAC>(&pad(nl), &pad(tg), &w, &sv, ab, &mut acc);
+    }
+    acc.map(|a| a.iter().sum::<f64>())
+}
+
+/// One block of [`LANES`] rows of [`linear_pass_log_body`].
+#[inline(always)]
+fn linear_block<const JAC: bool>(
+    c: &[f64; LANES],
+    t: &[f64; LANES],
+    w: &[f64; LANES],
+    sv: &[f64; LANES],
+    (a, b): (f64, f64),
+    acc: &mut [[f64; LANES]; 6],
+) {
+    let y: [f64; LANES] = std::array::from_fn(|l| c[l] * (a * sv[l] + b));
+    if !JAC {
+        let u: [f64; LANES] = std::array::from_fn(|l| 1.0 + y[l]);
+        let v = lanes::ln(&u);
+        for l in 0..LANES {
+            // fdlibm log1p's correction for the rounding of u, without its division by u
+            // (a change below 2⁻⁵³ relative, enough for ranking grid points).
+            let r = w[l] * (v[l] + (y[l] - (u[l] - 1.0)) - t[l]);
+            acc[0][l] += 0.5 * r * r;
+        }
+        return;
+    }
+    let (v, iu) = lanes::ln_1p(&y);
+    for l in 0..LANES {
+        let r = w[l] * (v[l] - t[l]);
+        let jb = w[l] * c[l] * iu[l];
+        let ja = jb * sv[l];
+        acc[0][l] += 0.5 * r * r;
+        acc[1][l] += ja * ja;
+        acc[2][l] += ja * jb;
+        acc[3][l] += jb * jb;
+        acc[4][l] += ja * r;
+        acc[5][l] += jb * r;
+    }
+}
+
+/// [`linear_pass`] for the linear loss.
+fn linear_pass_linear(tg: &[f64], sw: &[f64], s: Basis, (a, b): (f64, f64)) -> [f64; 6] {
+    let mut t = [0.0f64; 6];
+    for i in 0..tg.len() {
+        let w = sw.get(i).copied().unwrap_or(1.0);
+        let si = s.a[i] * s.b[i];
+        let r = w * (a * si + b - tg[i]);
+        let (ja, jb) = (w * si, w);
+        t[0] += 0.5 * r * r;
+        t[1] += ja * ja;
+        t[2] += ja * jb;
+        t[3] += jb * jb;
+        t[4] += ja * r;
+        t[5] += jb * r;
+    }
+    t
 }
 
 /// Minimise the declared loss over the linear coefficients (a, b) of f = a·s + b from a
@@ -1316,18 +1422,34 @@ fn linear_pass(
 fn refine_linear(
     rows: &Rows,
     range: std::ops::Range<usize>,
-    s: &[f64],
+    s: Basis,
     start: (f64, f64),
     free: (bool, bool),
     lo: (f64, f64),
     loss: Loss,
+    steps: usize,
 ) -> (f64, (f64, f64)) {
     let mut x = start;
+    if steps == 0 && loss == Loss::Log {
+        let sw = if rows.weighted() {
+            &rows.sw[range.clone()]
+        } else {
+            &[][..]
+        };
+        let cost = linear_cost_log(
+            &rows.nl[range.clone()],
+            &rows.target[range.clone()],
+            sw,
+            s,
+            x,
+        );
+        return (cost, x);
+    }
     let (mut cost, mut jtj, mut jtr) = linear_pass(rows, range.clone(), s, x, loss);
     if loss == Loss::Linear {
         return (cost, x);
     }
-    for _ in 0..LINEAR_STEPS {
+    for _ in 0..steps {
         let ridge = 1e-9;
         let (da, db) = match free {
             (true, true) => {
@@ -1364,8 +1486,12 @@ fn refine_linear(
     (cost, x)
 }
 
-/// Gauss–Newton steps on the linear coefficients at each grid point.
+/// Gauss–Newton steps on the linear coefficients at the grid points that are refined.
 const LINEAR_STEPS: usize = 3;
+
+/// Grid points whose (ps, pd) are refined in the declared loss: the best this many by the
+/// first score, and as many of the grid's local minima.
+const REFINED_POINTS: usize = 8;
 
 /// Rows per channel the global initialisation scores its grid on.
 const INIT_ROWS: usize = 500;
@@ -1450,7 +1576,9 @@ fn global_init(full: &BrdfProblem, specs: &[&ParamSpec], opts: &FitOptions) -> V
             let table = f.grid_sums(&wdata, &wf);
             (f, table)
         });
-    let score_point = |(index, pt): (usize, &Vec<f64>)| {
+    let (ones, zeros) = (vec![1.0; p.rows.len()], vec![0.0; p.rows.len()]);
+    let score_point = |index: usize, steps: usize| {
+        let pt = &points[index];
         // Natural values of all free variables at this grid point (linear ones solved).
         let mut theta = vec![f64::NAN; nfree];
         let mut score = 0.0;
@@ -1481,14 +1609,25 @@ fn global_init(full: &BrdfProblem, specs: &[&ParamSpec], opts: &FitOptions) -> V
                 Slot::Fixed(v) => Some(v),
                 _ => None,
             };
+            let owned: Vec<f64>;
             let basis = match (&separable, ips) {
                 (Some((f, _)), _) => f.basis(index),
-                (None, Some(_)) => problem::brdf_values(&spec_model, &p.rows, rows.clone()),
-                (None, None) => vec![0.0; rows.len()],
+                (None, Some(_)) => {
+                    owned = problem::brdf_values(&spec_model, &p.rows, rows.clone());
+                    Basis {
+                        a: &owned,
+                        b: &ones[..rows.len()],
+                    }
+                }
+                (None, None) => Basis {
+                    a: &zeros[..rows.len()],
+                    b: &ones[..rows.len()],
+                },
             };
             let raw = match &separable {
                 Some((_, table)) => table[index],
-                None => basis_sums(&basis, &wdata[rows.clone()], &wf[rows.clone()]),
+                // Here the basis is its first factor (the second is ones).
+                None => basis_sums(basis.a, &wdata[rows.clone()], &wf[rows.clone()]),
             };
             let [a11, a12, a22, b1, b2, _] = combine_sums(
                 raw,
@@ -1527,11 +1666,12 @@ fn global_init(full: &BrdfProblem, specs: &[&ParamSpec], opts: &FitOptions) -> V
             let (cost, (a, b)) = refine_linear(
                 &p.rows,
                 rows,
-                &basis,
+                basis,
                 (ps + fps, pd * pi + fpd),
                 (free_ps, free_pd),
                 (fps, fpd),
                 opts.loss,
+                steps,
             );
             score += cost;
             let (ps, pd) = (a - fps, (b - fpd) / pi);
@@ -1547,28 +1687,47 @@ fn global_init(full: &BrdfProblem, specs: &[&ParamSpec], opts: &FitOptions) -> V
         let x: Vec<f64> = (0..nfree)
             .map(|k| p.transforms[k].invert(theta[k]))
             .collect();
-        Some((
-            if score.is_finite() {
-                score
-            } else {
-                f64::INFINITY
-            },
-            x,
-        ))
+        let score = if score.is_finite() {
+            score
+        } else {
+            f64::INFINITY
+        };
+        (score, x)
     };
+    // Every point scored at the linear solve's (ps, pd) (an upper bound of its best score),
+    // then the promising ones with (ps, pd) minimising the declared loss.
     use rayon::prelude::*;
-    let scored: Vec<(f64, Vec<f64>)> = points
-        .par_iter()
-        .enumerate()
-        .filter_map(score_point)
+    let mut scored: Vec<(f64, Vec<f64>)> = (0..points.len())
+        .into_par_iter()
+        .map(|i| score_point(i, 0))
         .collect();
-    grid_minima(&scored, &dims)
+    let first: Vec<f64> = scored.iter().map(|s| s.0).collect();
+    let mut refine = grid_minima(&first, &dims, REFINED_POINTS);
+    let mut order: Vec<usize> = (0..first.len()).collect();
+    order.sort_by(|&a, &b| first[a].total_cmp(&first[b]).then(a.cmp(&b)));
+    refine.extend(order.into_iter().take(REFINED_POINTS));
+    refine.sort_unstable();
+    refine.dedup();
+    let better: Vec<(usize, (f64, Vec<f64>))> = refine
+        .par_iter()
+        .map(|&i| (i, score_point(i, LINEAR_STEPS)))
+        .collect();
+    for (i, s) in better {
+        if s.0 <= scored[i].0 {
+            scored[i] = s;
+        }
+    }
+    let scores: Vec<f64> = scored.iter().map(|s| s.0).collect();
+    grid_minima(&scores, &dims, CANDIDATES)
+        .into_iter()
+        .map(|i| scored[i].1.clone())
+        .collect()
 }
 
 /// The local minima of a score tabulated on a grid (row-major over `dims`; a point is a
-/// minimum when no neighbour along any axis scores lower), best first, at most [`CANDIDATES`];
-/// if there are fewer, the best other points not next to a kept one fill up.
-fn grid_minima(scored: &[(f64, Vec<f64>)], dims: &[usize]) -> Vec<Vec<f64>> {
+/// minimum when no neighbour along any axis scores lower), best first, at most `limit`; if
+/// there are fewer than two, the best other point not next to a kept one is added.
+fn grid_minima(scores: &[f64], dims: &[usize], limit: usize) -> Vec<usize> {
     let strides: Vec<usize> = (0..dims.len())
         .map(|d| dims[d + 1..].iter().product())
         .collect();
@@ -1586,19 +1745,19 @@ fn grid_minima(scored: &[(f64, Vec<f64>)], dims: &[usize]) -> Vec<Vec<f64>> {
         }
         v
     };
-    let mut order: Vec<usize> = (0..scored.len())
-        .filter(|&i| scored[i].0.is_finite())
+    let mut order: Vec<usize> = (0..scores.len())
+        .filter(|&i| scores[i].is_finite())
         .collect();
-    order.sort_by(|&a, &b| scored[a].0.total_cmp(&scored[b].0).then(a.cmp(&b)));
-    let is_min = |i: usize| neighbours(i).iter().all(|&j| scored[i].0 <= scored[j].0);
+    order.sort_by(|&a, &b| scores[a].total_cmp(&scores[b]).then(a.cmp(&b)));
+    let is_min = |i: usize| neighbours(i).iter().all(|&j| scores[i] <= scores[j]);
     let mut kept: Vec<usize> = order
         .iter()
         .copied()
         .filter(|&i| is_min(i))
-        .take(CANDIDATES)
+        .take(limit)
         .collect();
     for &i in &order {
-        if kept.len() >= CANDIDATES.min(2) {
+        if kept.len() >= limit.min(2) {
             break;
         }
         let near = kept
@@ -1608,7 +1767,7 @@ fn grid_minima(scored: &[(f64, Vec<f64>)], dims: &[usize]) -> Vec<Vec<f64>> {
             kept.push(i);
         }
     }
-    kept.into_iter().map(|i| scored[i].1.clone()).collect()
+    kept
 }
 
 /// Standard errors, correlations and per-parameter near-singularity flags from JᵀJ in natural

@@ -115,6 +115,66 @@ impl Transform {
     }
 }
 
+/// The indices of the `k` largest values of `v` in `range` (ties to the lower index). The
+/// k-th largest of the block maxima (blocks of 1,024 rows) is a lower bound of the k-th largest
+/// value, so only blocks whose maximum reaches it are searched, with a bounded heap.
+fn largest(v: &[f64], range: std::ops::Range<usize>, k: usize) -> Vec<usize> {
+    use std::cmp::{Ordering, Reverse};
+    use std::collections::BinaryHeap;
+    /// A row ranked by value (total order), then by lower index first.
+    #[derive(PartialEq)]
+    struct Key(f64, Reverse<usize>);
+    impl Eq for Key {}
+    impl PartialOrd for Key {
+        fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+            Some(self.cmp(o))
+        }
+    }
+    impl Ord for Key {
+        fn cmp(&self, o: &Self) -> Ordering {
+            self.0.total_cmp(&o.0).then(self.1.cmp(&o.1))
+        }
+    }
+    if k == 0 || range.is_empty() {
+        return Vec::new();
+    }
+    const BLOCK: usize = 1024;
+    let blocks: Vec<(usize, f64)> = v[range.clone()]
+        .chunks(BLOCK)
+        .enumerate()
+        .map(|(b, c)| (b, c.iter().copied().fold(f64::NEG_INFINITY, f64::max)))
+        .collect();
+    let mut maxima: Vec<f64> = blocks.iter().map(|b| b.1).collect();
+    let floor = if maxima.len() > k {
+        let (_, t, _) = maxima.select_nth_unstable_by(k - 1, |a, b| b.total_cmp(a));
+        *t
+    } else {
+        f64::NEG_INFINITY
+    };
+    let mut heap: BinaryHeap<Reverse<Key>> = BinaryHeap::with_capacity(k + 1);
+    for &(b, max) in &blocks {
+        if max < floor {
+            continue;
+        }
+        let lo = range.start + b * BLOCK;
+        for i in lo..(lo + BLOCK).min(range.end) {
+            if v[i] < floor {
+                continue;
+            }
+            let key = Key(v[i], Reverse(i));
+            if heap.len() < k {
+                heap.push(Reverse(key));
+            } else if heap.peek().is_some_and(|m| key > m.0) {
+                heap.pop();
+                heap.push(Reverse(key));
+            }
+        }
+    }
+    heap.into_iter()
+        .map(|Reverse(Key(_, Reverse(i)))| i)
+        .collect()
+}
+
 /// Where a model parameter of one channel comes from.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Slot {
@@ -399,25 +459,17 @@ impl BrdfProblem {
                 pick.extend((lo..hi).map(|i| (i, 1.0)));
             } else {
                 let top = max_rows_per_channel / 10;
-                let mut order: Vec<usize> = (lo..hi).collect();
-                order.sort_by(|&a, &b| {
-                    self.rows.target[b]
-                        .total_cmp(&self.rows.target[a])
-                        .then(a.cmp(&b))
-                });
-                let mut peak = vec![false; hi - lo];
-                for &i in &order[..top] {
-                    peak[i - lo] = true;
-                }
-                let rest = hi - lo - top;
-                let stride = rest.div_ceil(max_rows_per_channel - top).max(1);
+                let mut order = largest(&self.rows.target, lo..hi, top);
+                order.sort_unstable();
+                let rest = hi - lo - order.len();
+                let stride = (hi - lo).div_ceil(max_rows_per_channel - top).max(1);
                 let kept: Vec<usize> = (lo..hi)
-                    .filter(|&i| !peak[i - lo])
                     .step_by(stride)
+                    .filter(|i| order.binary_search(i).is_err())
                     .collect();
                 let w = rest as f64 / kept.len() as f64;
                 let mut chosen: Vec<(usize, f64)> = kept.into_iter().map(|i| (i, w)).collect();
-                chosen.extend(order[..top].iter().map(|&i| (i, 1.0)));
+                chosen.extend(order.iter().map(|&i| (i, 1.0)));
                 chosen.sort_by_key(|&(i, _)| i);
                 pick.extend(chosen);
             }
