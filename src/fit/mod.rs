@@ -1417,18 +1417,19 @@ fn linear_pass_linear(tg: &[f64], sw: &[f64], s: Basis, (a, b): (f64, f64)) -> [
 }
 
 /// Minimise the declared loss over the linear coefficients (a, b) of f = a·s + b from a
-/// start, by a few projected Gauss–Newton steps; `free` says which may move and `lo` is
-/// each one's lower bound. Returns the cost and (a, b).
+/// start, by `steps` projected Gauss–Newton steps; `lo` holds each one's lower bound, or
+/// `None` for one that is held. Returns the cost and (a, b).
 fn refine_linear(
     rows: &Rows,
     range: std::ops::Range<usize>,
     s: Basis,
     start: (f64, f64),
-    free: (bool, bool),
-    lo: (f64, f64),
+    lo: (Option<f64>, Option<f64>),
     loss: Loss,
     steps: usize,
 ) -> (f64, (f64, f64)) {
+    let free = (lo.0.is_some(), lo.1.is_some());
+    let lo = (lo.0.unwrap_or(f64::MIN), lo.1.unwrap_or(f64::MIN));
     let mut x = start;
     if steps == 0 && loss == Loss::Log {
         let sw = if rows.weighted() {
@@ -1668,8 +1669,7 @@ fn global_init(full: &BrdfProblem, specs: &[&ParamSpec], opts: &FitOptions) -> V
                 rows,
                 basis,
                 (ps + fps, pd * pi + fpd),
-                (free_ps, free_pd),
-                (fps, fpd),
+                (free_ps.then_some(fps), free_pd.then_some(fpd)),
                 opts.loss,
                 steps,
             );
@@ -2171,7 +2171,9 @@ mod tests {
                     let want = basis_sums(&basis, &w, &wf);
                     let index = i * cs.len() + j;
                     let got = table[index];
-                    for (r, (a, b)) in factors.basis(index).iter().zip(&basis).enumerate() {
+                    let fb = factors.basis(index);
+                    let got_basis = fb.a.iter().zip(fb.b).map(|(x, y)| x * y);
+                    for (r, (a, b)) in got_basis.zip(&basis).enumerate() {
                         assert!(
                             (a - b).abs() <= 1e-12 * b.abs().max(1e-300),
                             "row {r}: {a} vs {b}"
