@@ -3,11 +3,11 @@
 //! brdfit CSV sampled on a grid.
 
 use crate::data::{Dataset, Quantity, merl};
-use crate::model::{Geometry, Model, ModelKind, f0_from_n, short};
+use crate::model::{Geometry, Material, MaterialKind, Model, Role, f0_from_n, short};
 use std::f64::consts::FRAC_PI_2;
 
 /// Export formats.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum ExportFormat {
     /// Mitsuba 3 BSDF XML snippet.
     Mitsuba,
@@ -35,134 +35,119 @@ impl ExportFormat {
     }
 }
 
-/// GGX α of a model: c3 for D3 (D3 = π c3² D_GGX); for cosine powers the Beckmann-matched
-/// α = √(2/(c1 + 2)) (Walter et al. 2007), for the Gaussian D2 α = √2/c2 (its slope width).
-pub fn ggx_alpha(m: &Model) -> Option<f64> {
-    match m.kind {
-        ModelKind::Lambert => None,
-        ModelKind::Phong | ModelKind::BlinnPhong => Some((2.0 / (m.p[0] + 2.0)).sqrt()),
-        ModelKind::TorranceSparrow => Some(match m.dist {
-            crate::model::Distribution::D3 => m.p[1],
-            crate::model::Distribution::D2 => std::f64::consts::SQRT_2 / m.p[1],
-            crate::model::Distribution::D1 => (2.0 / (m.p[1] + 2.0)).sqrt(),
-        }),
+/// The material line's comment: the model, and whether the target's model is the same.
+fn heading(m: &Model, mat: &Material) -> String {
+    if mat.exact {
+        format!("brdfit export of {m}\n     The target evaluates the same f_r (exact).")
+    } else {
+        format!("brdfit export of {m}\n     {}", mat.differs)
     }
 }
-
-fn pd_of(m: &Model) -> f64 {
-    m.get("pd").unwrap_or(0.0)
-}
-
-/// True for a metal-like fit: Fresnel reflectance at normal incidence above 0.5.
-fn metallic(m: &Model) -> bool {
-    m.kind == ModelKind::TorranceSparrow && f0_from_n(m.p[0]) > 0.5
-}
-
-const DIFFERS: &str = "What differs from brdfit's model: Mitsuba and pbrt use Smith masking instead of Blinn's V-groove G, a normalised GGX instead of Blinn's D3 with peak 1 (D3 = pi c3^2 D_GGX), and energy from the Fresnel term instead of the free scale ps; pd maps to the diffuse reflectance directly.";
 
 /// Mitsuba 3 BSDF XML snippet.
 pub fn mitsuba(m: &Model, id: &str) -> String {
-    let pd = pd_of(m);
-    let mut s = format!("<!-- brdfit export of {m}\n     {DIFFERS} -->\n");
-    match (m.kind, ggx_alpha(m)) {
-        (ModelKind::Lambert, _) | (_, None) => {
-            s += &format!(
-                "<bsdf type=\"diffuse\" id=\"{id}\">\n    <rgb name=\"reflectance\" value=\"{0}, {0}, {0}\"/>\n</bsdf>\n",
-                short(pd)
-            );
-        }
-        (_, Some(alpha)) if metallic(m) => {
-            s += &format!(
+    let mat = m.material();
+    let mut s = format!("<!-- {} -->\n", heading(m, &mat));
+    s += &match mat.kind {
+        MaterialKind::Diffuse { reflectance } => format!(
+            "<bsdf type=\"diffuse\" id=\"{id}\">\n    <rgb name=\"reflectance\" value=\"{0}, {0}, {0}\"/>\n</bsdf>\n",
+            short(reflectance)
+        ),
+        MaterialKind::Aluminium { alpha } => {
+            let n = m.role(Role::Index).unwrap_or(1.5);
+            format!(
                 "<!-- a metal: n = {} acts as an effective index (F0 = {}); the conductor below uses Mitsuba's aluminium table -->\n<bsdf type=\"roughconductor\" id=\"{id}\">\n    <string name=\"distribution\" value=\"ggx\"/>\n    <float name=\"alpha\" value=\"{}\"/>\n    <string name=\"material\" value=\"Al\"/>\n</bsdf>\n",
-                short(m.p[0]),
-                short(f0_from_n(m.p[0])),
+                short(n),
+                short(f0_from_n(n)),
                 short(alpha)
-            );
+            )
         }
-        (_, Some(alpha)) => {
-            let ior = if m.kind == ModelKind::TorranceSparrow {
-                m.p[0]
-            } else {
-                1.5
-            };
-            s += &format!(
-                "<bsdf type=\"roughplastic\" id=\"{id}\">\n    <string name=\"distribution\" value=\"ggx\"/>\n    <float name=\"alpha\" value=\"{}\"/>\n    <float name=\"int_ior\" value=\"{}\"/>\n    <float name=\"ext_ior\" value=\"1.0\"/>\n    <rgb name=\"diffuse_reflectance\" value=\"{2}, {2}, {2}\"/>\n    <boolean name=\"nonlinear\" value=\"false\"/>\n</bsdf>\n",
-                short(alpha),
-                short(ior),
-                short(pd)
-            );
-        }
-    }
+        MaterialKind::Plastic {
+            alpha,
+            ior,
+            diffuse,
+        } => format!(
+            "<bsdf type=\"roughplastic\" id=\"{id}\">\n    <string name=\"distribution\" value=\"ggx\"/>\n    <float name=\"alpha\" value=\"{}\"/>\n    <float name=\"int_ior\" value=\"{}\"/>\n    <float name=\"ext_ior\" value=\"1.0\"/>\n    <rgb name=\"diffuse_reflectance\" value=\"{2}, {2}, {2}\"/>\n    <boolean name=\"nonlinear\" value=\"false\"/>\n</bsdf>\n",
+            short(alpha),
+            short(ior),
+            short(diffuse)
+        ),
+        MaterialKind::DiffusePlusConductor {
+            diffuse,
+            alpha,
+            eta,
+            scale,
+        } => format!(
+            "<!-- f_r = pd/pi + ps F D G1 G1/(4 cos cos) as the mean of two BSDFs, each weighted 1/2: diffuse(2 pd) and roughconductor(ggx, alpha, eta = n, k = 0, specular_reflectance = 2 ps); a conductor with k = 0 has the unpolarised dielectric Fresnel reflectance -->\n<bsdf type=\"blendbsdf\" id=\"{id}\">\n    <float name=\"weight\" value=\"0.5\"/>\n    <bsdf type=\"diffuse\">\n        <rgb name=\"reflectance\" value=\"{0}, {0}, {0}\"/>\n    </bsdf>\n    <bsdf type=\"roughconductor\">\n        <string name=\"distribution\" value=\"ggx\"/>\n        <float name=\"alpha\" value=\"{1}\"/>\n        <boolean name=\"sample_visible\" value=\"true\"/>\n        <rgb name=\"eta\" value=\"{2}, {2}, {2}\"/>\n        <rgb name=\"k\" value=\"0, 0, 0\"/>\n        <rgb name=\"specular_reflectance\" value=\"{3}, {3}, {3}\"/>\n    </bsdf>\n</bsdf>\n",
+            short(2.0 * diffuse),
+            short(alpha),
+            short(eta),
+            short(2.0 * scale)
+        ),
+    };
     s
 }
 
 /// pbrt-v4 material line.
 pub fn pbrt(m: &Model) -> String {
-    let pd = pd_of(m);
-    let head = format!("# brdfit export of {m}\n# {DIFFERS}\n");
-    match ggx_alpha(m) {
-        None => {
-            head + &format!(
-                "Material \"diffuse\" \"rgb reflectance\" [ {0} {0} {0} ]\n",
-                short(pd)
-            )
-        }
-        Some(a) if metallic(m) => {
-            head + &format!(
-                "Material \"conductor\" \"float roughness\" [ {} ] \"bool remaproughness\" false \"spectrum eta\" \"metal-Al-eta\" \"spectrum k\" \"metal-Al-k\"\n",
-                short(a)
-            )
-        }
-        Some(a) => {
-            let eta = if m.kind == ModelKind::TorranceSparrow {
-                m.p[0]
-            } else {
-                1.5
-            };
-            head + &format!(
-                "Material \"coateddiffuse\" \"rgb reflectance\" [ {0} {0} {0} ] \"float roughness\" [ {1} ] \"bool remaproughness\" false \"float eta\" [ {2} ]\n",
-                short(pd),
-                short(a),
-                short(eta)
-            )
-        }
+    let mat = m.material();
+    let head = format!("# {}\n", heading(m, &mat).replace("\n     ", "\n# "));
+    head + &match mat.kind {
+        MaterialKind::Diffuse { reflectance } => format!(
+            "Material \"diffuse\" \"rgb reflectance\" [ {0} {0} {0} ]\n",
+            short(reflectance)
+        ),
+        MaterialKind::Aluminium { alpha } => format!(
+            "Material \"conductor\" \"float roughness\" [ {} ] \"bool remaproughness\" false \"spectrum eta\" \"metal-Al-eta\" \"spectrum k\" \"metal-Al-k\"\n",
+            short(alpha)
+        ),
+        MaterialKind::Plastic {
+            alpha,
+            ior,
+            diffuse,
+        } => format!(
+            "Material \"coateddiffuse\" \"rgb reflectance\" [ {0} {0} {0} ] \"float roughness\" [ {1} ] \"bool remaproughness\" false \"float eta\" [ {2} ]\n",
+            short(diffuse),
+            short(alpha),
+            short(ior)
+        ),
+        MaterialKind::DiffusePlusConductor {
+            diffuse,
+            alpha,
+            eta,
+            scale,
+        } => format!(
+            "# Not exact in pbrt-v4: its conductor uses the height-correlated Smith G = 1/(1 + L(o) + L(i)), not the separable G1 G1, has no scale for ps (ps = {3}: the lobe below has ps = 1), and \"mix\" picks one material per ray (its mean is the average of the two).\nMakeNamedMaterial \"brdfit-diffuse\" \"string type\" \"diffuse\" \"rgb reflectance\" [ {0} {0} {0} ]\nMakeNamedMaterial \"brdfit-lobe\" \"string type\" \"conductor\" \"float roughness\" [ {1} ] \"bool remaproughness\" false \"spectrum eta\" [ 400 {2} 700 {2} ] \"spectrum k\" [ 400 0 700 0 ]\nMaterial \"mix\" \"string materials\" [ \"brdfit-diffuse\" \"brdfit-lobe\" ] \"float amount\" [ 0.5 ]\n",
+            short(2.0 * diffuse),
+            short(alpha),
+            short(eta),
+            short(scale)
+        ),
     }
 }
 
-/// Disney BRDF Explorer analytic `.brdf` of the model, fitted values as parameter defaults.
+/// Disney BRDF Explorer analytic `.brdf` of the model, fitted values as parameter defaults
+/// and slider ranges from the parameters' declared ranges.
 pub fn brdf_explorer(m: &Model) -> String {
     let params: String = m
-        .param_names()
+        .specs()
         .iter()
         .zip(m.params())
-        .map(|(n, v)| {
-            let (lo, hi) = match *n {
-                "n" => (1.0, v.max(10.0) * 2.0),
-                "c3" => (0.001, 1.0),
-                "c1" => (1.0, v.max(100.0) * 2.0),
-                "c2" => (0.01, v.max(10.0) * 2.0),
-                _ => (0.0, v.max(1.0) * 2.0),
-            };
-            format!("float {n} {} {} {}\n", short(lo), short(hi), short(*v))
+        .map(|(spec, v)| {
+            let (lo, hi) = spec.slider;
+            let hi = if spec.hi <= 1.0 { hi } else { v.max(hi) * 2.0 };
+            format!(
+                "float {} {} {} {}\n",
+                spec.name,
+                short(lo),
+                short(hi),
+                short(*v)
+            )
         })
         .collect();
-    let body = match m.kind {
-        ModelKind::Lambert => "    return vec3(pd / PI);".to_string(),
-        ModelKind::Phong => "    vec3 R = reflect(-L, N);\n    float s = pow(max(dot(R, V), 0.0), c1);\n    return vec3(pd / PI + ps * s / (PI * NdotL));".to_string(),
-        ModelKind::BlinnPhong => "    vec3 H = normalize(L + V);\n    float s = pow(max(dot(N, H), 0.0), c1);\n    return vec3(pd / PI + ps * s / (PI * NdotL));".to_string(),
-        ModelKind::TorranceSparrow => {
-            let d = match m.dist {
-                crate::model::Distribution::D1 => "pow(NdotH, c1)",
-                crate::model::Distribution::D2 => "exp(-pow(acos(min(NdotH, 1.0)) * c2, 2.0))",
-                crate::model::Distribution::D3 => "pow(c3 * c3 / (NdotH * NdotH * (c3 * c3 - 1.0) + 1.0), 2.0)",
-            };
-            format!(
-                "    vec3 H = normalize(L + V);\n    float NdotH = dot(N, H);\n    float EdotH = dot(V, H);\n    float D = {d};\n    float G = min(1.0, min(2.0 * NdotH * NdotV / EdotH, 2.0 * NdotH * NdotL / EdotH));\n    float c = EdotH;\n    float g = sqrt(n * n + c * c - 1.0);\n    float F = 0.5 * pow((g - c) / (g + c), 2.0) * (1.0 + pow((c * (g + c) - 1.0) / (c * (g - c) + 1.0), 2.0));\n    return vec3(pd / PI + ps * D * G * F / (PI * NdotL * NdotV));"
-            )
-        }
-    };
+    let body = m.glsl();
     format!(
-        "analytic\n# brdfit export of {m}: Blinn 1977 with brdfit's conventions (f_r = i / (pi N.L), F with the factor 1/2)\n::begin parameters\n{params}::end parameters\n::begin shader\nconst float PI = 3.14159265358979323846;\nvec3 BRDF( vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y )\n{{\n    float NdotL = dot(N, L);\n    float NdotV = dot(N, V);\n    if (NdotL <= 0.0 || NdotV <= 0.0) return vec3(0.0);\n{body}\n}}\n::end shader\n"
+        "analytic\n# brdfit export of {m}: brdfit's conventions (f_r = i / (pi N.L), F with the factor 1/2)\n::begin parameters\n{params}::end parameters\n::begin shader\nconst float PI = 3.14159265358979323846;\nvec3 BRDF( vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y )\n{{\n    float NdotL = dot(N, L);\n    float NdotV = dot(N, V);\n    if (NdotL <= 0.0 || NdotV <= 0.0) return vec3(0.0);\n{body}\n}}\n::end shader\n"
     )
 }
 

@@ -174,8 +174,8 @@ enum Command {
         fit: PathBuf,
         /// Target: mitsuba (BSDF XML), pbrt (pbrt-v4 material), brdf-explorer (.brdf analytic),
         /// merl (.binary table), csv (the model on a 5°/15° grid).
-        #[arg(long)]
-        to: String,
+        #[arg(long, value_enum)]
+        to: brdfit::export::ExportFormat,
         /// Output file (text formats go to standard output when omitted).
         #[arg(short, long)]
         output: Option<PathBuf>,
@@ -533,12 +533,12 @@ fn run_study(cmd: StudyCommand) -> Result<()> {
 
 #[derive(Args, Debug, Clone)]
 struct OptModelArgs {
-    /// A model (instead of or besides a fit): lambert, phong, blinn-phong, torrance-sparrow.
-    #[arg(long)]
-    model: Option<String>,
-    /// Distribution of torrance-sparrow.
-    #[arg(long, default_value = "d3")]
-    distribution: String,
+    /// A model (instead of or besides a fit).
+    #[arg(long, value_enum)]
+    model: Option<ModelKind>,
+    /// Facet distribution of models that take one (torrance-sparrow).
+    #[arg(long, value_enum, default_value = "d3")]
+    distribution: Distribution,
     /// Parameters NAME=VALUE.
     #[arg(long = "set", value_delimiter = ',')]
     set: Vec<String>,
@@ -549,8 +549,8 @@ impl OptModelArgs {
         match &self.model {
             None => Ok(None),
             Some(m) => ModelArgs {
-                model: m.clone(),
-                distribution: self.distribution.clone(),
+                model: *m,
+                distribution: self.distribution,
                 set: self.set.clone(),
                 fast_pow: None,
             }
@@ -725,21 +725,22 @@ struct FitArgs {
     /// Batch summary: one row per file, channel and model (CSV, or JSON when FILE ends in .json).
     #[arg(long, value_name = "FILE")]
     summary: Option<PathBuf>,
-    /// Model: lambert, phong, blinn-phong, torrance-sparrow, or all (ranked by BIC).
-    #[arg(long, default_value = "torrance-sparrow")]
+    /// Model, or all (every model, ranked by BIC).
+    #[arg(long, default_value = "torrance-sparrow", value_parser = model_or_all())]
     model: String,
-    /// Facet distribution of torrance-sparrow: d1, d2 or d3.
-    #[arg(long, default_value = "d3")]
-    distribution: String,
+    /// Facet distribution of models that take one (torrance-sparrow): d1 (cosine power), d2
+    /// (Gaussian), d3 (Trowbridge–Reitz).
+    #[arg(long, value_enum, default_value = "d3")]
+    distribution: Distribution,
     /// Local method: lm (Levenberg–Marquardt), gn (Gauss–Newton with line search), nm (Nelder–Mead).
-    #[arg(long, default_value = "lm")]
-    method: String,
+    #[arg(long, value_enum, default_value = "lm")]
+    method: brdfit::fit::lsq::Method,
     /// Loss: log (ln(1 + cosθi f) differences) or linear (f differences).
-    #[arg(long, default_value = "log")]
-    loss: String,
-    /// Robust loss on top of it: huber or cauchy.
-    #[arg(long)]
-    robust: Option<String>,
+    #[arg(long, value_enum, default_value = "log")]
+    loss: brdfit::fit::problem::Loss,
+    /// Robust loss on top of it.
+    #[arg(long, value_enum)]
+    robust: Option<brdfit::fit::RobustKind>,
     /// Drop samples with θi or θo beyond this angle (degrees).
     #[arg(long, value_name = "DEG")]
     max_theta: Option<f64>,
@@ -778,11 +779,11 @@ struct FitArgs {
 #[derive(Args, Debug, Clone)]
 struct LoadArgs {
     /// Input format (csv, astm, cornell, merl) instead of detecting it from extension and content.
-    #[arg(long)]
-    format: Option<String>,
+    #[arg(long, value_enum)]
+    format: Option<Format>,
     /// What to do with negative values: mask (treat as missing), clamp (to 0) or error.
-    #[arg(long, default_value = "mask")]
-    negative: String,
+    #[arg(long, value_enum, default_value = "mask")]
+    negative: NegativePolicy,
     /// Reduce to one channel: a name (r, g, b, 550nm), an index, a wavelength (555nm,
     /// interpolated) or cie-y (CIE 1931 luminance of spectral data).
     #[arg(long)]
@@ -791,12 +792,13 @@ struct LoadArgs {
 
 #[derive(Args, Debug, Clone)]
 struct ModelArgs {
-    /// Model: lambert, phong, blinn-phong or torrance-sparrow.
-    #[arg(long)]
-    model: String,
-    /// Facet distribution of torrance-sparrow: d1 (cosine power), d2 (Gaussian), d3 (Trowbridge–Reitz).
-    #[arg(long, default_value = "d3")]
-    distribution: String,
+    /// Model.
+    #[arg(long, value_enum)]
+    model: ModelKind,
+    /// Facet distribution of models that take one (torrance-sparrow): d1 (cosine power), d2
+    /// (Gaussian), d3 (Trowbridge–Reitz).
+    #[arg(long, value_enum, default_value = "d3")]
+    distribution: Distribution,
     /// Parameter values NAME=VALUE (repeat or separate with commas), e.g. n=1.8,c3=0.35,ps=0.667,pd=0.333.
     #[arg(long = "set", value_delimiter = ',')]
     set: Vec<String>,
@@ -807,18 +809,7 @@ struct ModelArgs {
 
 impl ModelArgs {
     fn build(&self) -> Result<Model> {
-        let kind = ModelKind::parse(&self.model).ok_or_else(|| {
-            anyhow!(
-                "unknown model '{}'\n  fix: use --model lambert, phong, blinn-phong or torrance-sparrow",
-                self.model
-            )
-        })?;
-        let dist = Distribution::parse(&self.distribution).ok_or_else(|| {
-            anyhow!(
-                "unknown distribution '{}'\n  fix: use --distribution d1, d2 or d3",
-                self.distribution
-            )
-        })?;
+        let (kind, dist) = (self.model, self.distribution);
         let set = parse_assignments("--set", &self.set)?;
         let mut m = Model::from_named(kind, dist, &set).map_err(|e| anyhow!("{e}"))?;
         m.fast_pow = self.fast_pow;
@@ -844,18 +835,7 @@ fn parse_assignments(flag: &str, items: &[String]) -> Result<Vec<(String, f64)>>
 
 impl LoadArgs {
     fn load(&self, path: &Path) -> Result<Dataset> {
-        let format = match &self.format {
-            None => None,
-            Some(f) => Some(Format::parse(f).ok_or_else(|| {
-                anyhow!("unknown format '{f}'\n  fix: use --format csv, astm, cornell or merl")
-            })?),
-        };
-        let negative = NegativePolicy::parse(&self.negative).ok_or_else(|| {
-            anyhow!(
-                "unknown negative policy '{}'\n  fix: use --negative mask, clamp or error",
-                self.negative
-            )
-        })?;
+        let (format, negative) = (self.format, self.negative);
         let ds = data::load(path, &LoadOptions { format, negative })?;
         match &self.channel {
             None => Ok(ds),
@@ -1005,7 +985,7 @@ fn run(cli: Cli) -> Result<()> {
                 (Some(cd), _) => (cd, ca),
                 (None, Some(f)) => {
                     let m = read_fits(f)?.remove(0).model_for(0);
-                    let pd = m.get("pd").unwrap_or(0.0);
+                    let pd = m.pd();
                     (pd * irradiance / std::f64::consts::PI, pd * ambient)
                 }
                 (None, None) => bail!(
@@ -1120,9 +1100,11 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::Export { fit, to, output } => {
             use brdfit::export::{self, ExportFormat};
-            let fmt = ExportFormat::parse(&to).ok_or_else(|| {
-                anyhow!("unknown export format '{to}'\n  fix: use --to mitsuba, pbrt, brdf-explorer, merl or csv")
-            })?;
+            use clap::ValueEnum;
+            let fmt = to;
+            let to = to
+                .to_possible_value()
+                .map_or(String::new(), |v| v.get_name().to_string());
             let r = read_fits(&fit)?.remove(0);
             let m = r.model_for(0);
             let id = fit
@@ -1355,7 +1337,7 @@ fn fit_one(
     load: &LoadArgs,
     file: &Path,
 ) -> Result<(String, Vec<brdfit::fit::FitResult>)> {
-    use brdfit::fit::{self, FitOptions, RobustKind, lsq::Method, problem::Loss};
+    use brdfit::fit::{self, FitOptions};
     let t = std::time::Instant::now();
     let ds = load.load(file)?;
     if VERBOSE.load(std::sync::atomic::Ordering::Relaxed) {
@@ -1367,39 +1349,13 @@ fn fit_one(
             t.elapsed().as_secs_f64()
         );
     }
-    let dist = Distribution::parse(&a.distribution).ok_or_else(|| {
-        anyhow!(
-            "unknown distribution '{}'\n  fix: use --distribution d1, d2 or d3",
-            a.distribution
-        )
-    })?;
-    let kinds: Vec<(ModelKind, Distribution)> = if a.model == "all" {
-        fit::all_models()
-    } else {
-        vec![(
-            ModelKind::parse(&a.model).ok_or_else(|| {
-                anyhow!(
-                    "unknown model '{}'\n  fix: use --model lambert, phong, blinn-phong, torrance-sparrow or all",
-                    a.model
-                )
-            })?,
-            dist,
-        )]
+    let dist = a.distribution;
+    // clap has checked the name: `all` or a model.
+    let kinds: Vec<(ModelKind, Distribution)> = match ModelKind::parse(&a.model) {
+        Some(kind) => vec![(kind, dist)],
+        None => fit::all_models(),
     };
-    let method = Method::parse(&a.method).ok_or_else(|| {
-        anyhow!(
-            "unknown method '{}'\n  fix: use --method lm, gn or nm",
-            a.method
-        )
-    })?;
-    let loss = Loss::parse(&a.loss)
-        .ok_or_else(|| anyhow!("unknown loss '{}'\n  fix: use --loss log or linear", a.loss))?;
-    let robust = match a.robust.as_deref() {
-        None => None,
-        Some("huber") => Some(RobustKind::Huber),
-        Some("cauchy") => Some(RobustKind::Cauchy),
-        Some(r) => bail!("unknown robust loss '{r}'\n  fix: use --robust huber or cauchy"),
-    };
+    let (method, loss, robust) = (a.method, a.loss, a.robust);
     let fix = parse_assignments("--fix", &a.fix)?;
     let start = parse_assignments("--start", &a.start)?;
     let mut all = Vec::new();
@@ -1589,4 +1545,16 @@ fn main() -> ExitCode {
             ExitCode::from(1)
         }
     }
+}
+
+/// `--model` of `fit`: a model's name (or alias) or `all`; clap rejects anything else with a
+/// suggestion and exit code 2.
+fn model_or_all() -> clap::builder::PossibleValuesParser {
+    use clap::ValueEnum;
+    clap::builder::PossibleValuesParser::new(
+        ModelKind::value_variants()
+            .iter()
+            .filter_map(|k| k.to_possible_value())
+            .chain([clap::builder::PossibleValue::new("all")]),
+    )
 }

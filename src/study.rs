@@ -58,13 +58,11 @@ pub struct SpeedRow {
 
 /// The models of the speed–accuracy study.
 pub fn study_models() -> Vec<(ModelKind, Distribution)> {
-    vec![
-        (ModelKind::Phong, Distribution::D3),
-        (ModelKind::BlinnPhong, Distribution::D3),
-        (ModelKind::TorranceSparrow, Distribution::D1),
-        (ModelKind::TorranceSparrow, Distribution::D2),
-        (ModelKind::TorranceSparrow, Distribution::D3),
-    ]
+    // Every model with a lobe (Lambert has nothing to converge to).
+    crate::model::catalogue()
+        .into_iter()
+        .filter(|(k, d)| k.index_of(*d, crate::model::Role::Shape).is_some())
+        .collect()
 }
 
 /// Run every method × model on channel 0 of `ds` (median time of `repeats` runs).

@@ -32,6 +32,19 @@ fn expect_error(args: &[&str], fragments: &[&str]) {
     }
 }
 
+fn expect_usage_error(args: &[&str], fragments: &[&str]) {
+    let out = brdfit(args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "{args:?}: exit code; stderr: {err}"
+    );
+    for f in fragments {
+        assert!(err.contains(f), "{args:?}: stderr lacks '{f}':\n{err}");
+    }
+}
+
 const H: &str = "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,brdf\n";
 
 #[test]
@@ -203,6 +216,38 @@ fn bad_files_of_other_kinds() {
 
 #[test]
 fn usage_errors_exit_2() {
+    // A closed choice spelt wrong: exit 2, the message once, the nearest valid value.
+    for (args, near) in [
+        (
+            &["fit", "data/blinn-mgo.csv", "--model", "torrance-sparow"][..],
+            "'torrance-sparrow'",
+        ),
+        (
+            &["fit", "data/blinn-mgo.csv", "--loss", "linar"][..],
+            "'linear'",
+        ),
+        (
+            &["eval", "--model", "blin-phong", "x.csv"][..],
+            "'blinn-phong'",
+        ),
+        (
+            &["info", "data/cayman.astm", "--negative", "clmp"][..],
+            "'clamp'",
+        ),
+    ] {
+        let out = brdfit(args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert_eq!(
+            err.matches("error:").count(),
+            1,
+            "{args:?} printed twice: {err}"
+        );
+        assert!(
+            err.contains(&format!("a similar value exists: {near}")),
+            "{args:?}: {err}"
+        );
+    }
     assert_eq!(brdfit(&["info"]).status.code(), Some(2));
     assert_eq!(brdfit(&["frobnicate"]).status.code(), Some(2));
     assert_eq!(brdfit(&["--version"]).status.code(), Some(0));
@@ -439,9 +484,9 @@ fn fit_command_end_to_end() {
         &["fit", "data/blinn-mgo.csv", "--fix", "c3=2"],
         &["blinn-mgo.csv", "c3 = 2 is outside its bounds", "fix:"],
     );
-    expect_error(
+    expect_usage_error(
         &["fit", "data/blinn-mgo.csv", "--method", "bfgs"],
-        &["unknown method 'bfgs'", "--method lm, gn or nm"],
+        &["invalid value 'bfgs'", "possible values: lm, gn, nm"],
     );
 }
 
@@ -477,9 +522,9 @@ fn export_completions_and_batch() {
     let info =
         String::from_utf8_lossy(&brdfit(&["info", merl.to_str().unwrap()]).stdout).to_string();
     assert!(info.contains("format:      merl"), "{info}");
-    expect_error(
+    expect_usage_error(
         &["export", json.to_str().unwrap(), "--to", "obj"],
-        &["unknown export format 'obj'"],
+        &["invalid value 'obj'", "mitsuba"],
     );
     let o = brdfit(&["completions", "bash"]);
     assert!(o.status.success() && String::from_utf8_lossy(&o.stdout).contains("_brdfit"));

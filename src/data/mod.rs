@@ -94,7 +94,7 @@ impl fmt::Display for Quantity {
 }
 
 /// File formats brdfit reads.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Format {
     /// brdfit CSV (header with unit-carrying angle columns).
     Csv,
@@ -142,7 +142,7 @@ impl Format {
 }
 
 /// What to do with negative values (a real wart of spectral→RGB conversions).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum NegativePolicy {
     /// Treat them as missing (the default).
     #[default]

@@ -137,14 +137,16 @@ impl Robust {
 }
 
 /// Solver choice.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum Method {
     /// Levenberg–Marquardt (default).
     #[default]
     Lm,
     /// Gauss–Newton with line search.
+    #[value(name = "gn")]
     GaussNewton,
     /// Nelder–Mead simplex.
+    #[value(name = "nm")]
     NelderMead,
 }
 

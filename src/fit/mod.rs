@@ -18,9 +18,11 @@ pub mod problem;
 use crate::data::Dataset;
 use crate::lanes::{self, LANES};
 use crate::model::Geometry;
-use crate::model::{Distribution, Model, ModelKind, ParamSpec, Scale, param_bounds, readable};
+use crate::model::{
+    Distribution, Model, ModelKind, ParamSpec, Role, Scale, param_bounds, readable,
+};
 use lsq::{Limits, Method, Problem, Robust, Solution};
-use problem::{BrdfProblem, Loss, Rows, Slot, Transform, linear_index};
+use problem::{BrdfProblem, Loss, Rows, Slot, Transform};
 use std::time::Instant;
 
 /// A fit that cannot be run, with the fix.
@@ -41,7 +43,7 @@ fn fit_error(message: impl Into<String>, fix: impl Into<String>) -> FitError {
 }
 
 /// Robust loss choice (the threshold is set from the residuals, see [`FitOptions::robust`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum RobustKind {
     /// Huber.
     Huber,
@@ -231,11 +233,7 @@ impl FitResult {
 
     /// Model label, e.g. `torrance-sparrow (d3)`.
     pub fn label(&self) -> String {
-        if self.model == ModelKind::TorranceSparrow {
-            format!("{} ({})", self.model, self.dist.name())
-        } else {
-            self.model.to_string()
-        }
+        self.model.label(self.dist)
     }
 
     /// The JSON object of the fit (schema in the README).
@@ -251,7 +249,7 @@ impl FitResult {
         o.insert("model".into(), json!(self.model.name()));
         o.insert(
             "distribution".into(),
-            if self.model == ModelKind::TorranceSparrow {
+            if self.model.has_distribution() {
                 json!(self.dist.name())
             } else {
                 Value::Null
@@ -633,10 +631,10 @@ fn fit_group(
             "there is no reflectance to fit; check the channel and the file",
         ));
     }
-    let n_free = layout[0][0] != Slot::Fixed(0.0)
-        && names[0] == "n"
-        && matches!(layout[0][0], Slot::Free(_));
-    if kind == ModelKind::TorranceSparrow && n_free {
+    let n_free = kind
+        .index_of(opts.dist, Role::Index)
+        .is_some_and(|i| matches!(layout[0][i], Slot::Free(_)));
+    if n_free {
         let t = chans[0].one_incidence;
         if let Some(t) = t
             && chans
@@ -1512,8 +1510,10 @@ fn global_init(full: &BrdfProblem, specs: &[&ParamSpec], opts: &FitOptions) -> V
     let nfree = p.transforms.len();
     let kind = opts.kind;
     let names = kind.param_names(opts.dist);
-    let ips = linear_index(kind, "ps");
-    let ipd = linear_index(kind, "pd").expect("every model has pd");
+    let ips = kind.index_of(opts.dist, Role::Specular);
+    let ipd = kind
+        .index_of(opts.dist, Role::Diffuse)
+        .expect("every model has pd");
     // Nonlinear free variables and their grids (thinned if their product is too large, as
     // for a joint fit with per-channel shape parameters).
     let mut nonlinear: Vec<(usize, Vec<f64>)> = (0..nfree)
@@ -1570,8 +1570,8 @@ fn global_init(full: &BrdfProblem, specs: &[&ParamSpec], opts: &FitOptions) -> V
         && p.layout.len() == 1
         && ips.is_some()
         && nonlinear.len() == 2
-        && specs[nonlinear[0].0].name == names[0]
-        && specs[nonlinear[1].0].name == names[1])
+        && specs[nonlinear[0].0].role == Role::Index
+        && specs[nonlinear[1].0].role == Role::Shape)
         .then(|| {
             let f = TsFactors::new(&p.rows, opts.dist, &nonlinear[0].1, &nonlinear[1].1);
             let table = f.grid_sums(&wdata, &wf);
@@ -1942,14 +1942,7 @@ fn profile_range(p: &BrdfProblem, x: &[f64], k: usize, opts: &FitOptions) -> Opt
 
 /// The models compared by `--model all`: (kind, distribution), simplest first.
 pub fn all_models() -> Vec<(ModelKind, Distribution)> {
-    vec![
-        (ModelKind::Lambert, Distribution::D3),
-        (ModelKind::Phong, Distribution::D3),
-        (ModelKind::BlinnPhong, Distribution::D3),
-        (ModelKind::TorranceSparrow, Distribution::D1),
-        (ModelKind::TorranceSparrow, Distribution::D2),
-        (ModelKind::TorranceSparrow, Distribution::D3),
-    ]
+    crate::model::catalogue()
 }
 
 /// Rank fits of one channel by BIC, usable fits first (a fit marked not usable is never

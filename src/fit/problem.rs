@@ -6,7 +6,7 @@ use crate::lanes::{self, LANES};
 use crate::model::{Distribution, Geometry, Model, ModelKind, ParamSpec, Scale};
 
 /// Which residual the fit minimises (½ Σ r²).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum Loss {
     /// r = ln(1 + cosθi f_model) − ln(1 + cosθi f_data) (default; balances peak and tail).
     #[default]
@@ -937,13 +937,6 @@ impl TsD3 {
         let w = g_ne * std::f64::consts::FRAC_1_PI;
         (d * f * w, [d * df * w, dd * f * w])
     }
-}
-
-/// The model kinds whose specular coefficient is `ps` and diffuse coefficient `pd`.
-pub fn linear_index(kind: ModelKind, name: &str) -> Option<usize> {
-    kind.param_names(Distribution::D3)
-        .iter()
-        .position(|n| *n == name)
 }
 
 #[cfg(test)]

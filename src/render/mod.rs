@@ -439,7 +439,8 @@ impl Material {
                     * (std::f64::consts::TAU * uv.0 * rt.frequency).sin()
                     * (std::f64::consts::TAU * uv.1 * rt.frequency).sin();
             let d = crate::model::d3_textured(g.nh, rt.cmin, t);
-            let (n, ps) = (self.model.p[0], self.model.p[2]);
+            let n = self.model.role(crate::model::Role::Index).unwrap_or(1.5);
+            let ps = self.model.role(crate::model::Role::Specular).unwrap_or(0.0);
             return ps * d * crate::model::fresnel(n, g.eh) * g.g_ne;
         }
         let pd = self.pd();

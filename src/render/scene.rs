@@ -350,7 +350,12 @@ fn material(name: &str, m: &MaterialSpec, dir: &Path) -> Result<Material> {
                 .model_for(0)
         }
         (None, Some(kind)) => {
-            let kind = ModelKind::parse(kind).ok_or_else(|| anyhow!("material {name}: unknown model '{kind}'\n  fix: use lambert, phong, blinn-phong or torrance-sparrow"))?;
+            let kind = ModelKind::parse(kind).ok_or_else(|| {
+                anyhow!(
+                    "material {name}: unknown model '{kind}'\n  fix: use one of {}",
+                    ModelKind::names()
+                )
+            })?;
             let dist = match &m.distribution {
                 Some(d) => Distribution::parse(d)
                     .ok_or_else(|| anyhow!("material {name}: unknown distribution '{d}'"))?,

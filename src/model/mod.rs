@@ -17,7 +17,17 @@
 //!
 //! Blinn's `c3` equals the GGX roughness α of modern renderers: D3 = π c3² D_GGX.
 
-use std::f64::consts::{FRAC_1_PI, PI};
+mod lambert;
+mod phong;
+mod torrance_sparrow;
+
+pub use phong::{fast_phong_pow, fast_phong_pow_da};
+pub use torrance_sparrow::{
+    Distribution, d3_textured, equal_beta_phong, f0_from_n, fresnel, fresnel_dn, fresnel_trig,
+    n_from_f0,
+};
+
+use std::f64::consts::PI;
 use std::fmt;
 
 /// Unit direction for polar angle `theta` and azimuth `phi` (radians), N = +z.
@@ -97,73 +107,6 @@ impl Geometry {
     }
 }
 
-/// Exact unpolarized Fresnel reflectance, Blinn's compact form with the factor ½:
-/// F = ½ (g−c)²/(g+c)² [1 + (c(g+c)−1)²/(c(g−c)+1)²], g = √(n² + c² − 1), c = E·H.
-///
-/// Equal to [`fresnel_trig`] (Blinn 1977, "Torrance-Sparrow model"); F(c=1) = ((n−1)/(n+1))²,
-/// F(c=0) = 1. Valid for n ≥ 1.
-pub fn fresnel(n: f64, c: f64) -> f64 {
-    fresnel_dn(n, c).0
-}
-
-/// Fresnel reflectance and its derivative with respect to `n` (see [`fresnel`]).
-#[inline]
-pub fn fresnel_dn(n: f64, c: f64) -> (f64, f64) {
-    let c = c.clamp(0.0, 1.0);
-    let g = (n * n + c * c - 1.0).max(0.0).sqrt();
-    let gp = g + c;
-    if gp <= 0.0 {
-        return (1.0, 0.0);
-    }
-    let gm = g - c;
-    let igp = 1.0 / gp;
-    let q = gm * igp;
-    let a = q * q;
-    let u = c * gp - 1.0;
-    let v = c * gm + 1.0;
-    let iv = 1.0 / v;
-    let t = u * iv;
-    let b = t * t;
-    let f = 0.5 * a * (1.0 + b);
-    // dA/dg = 4c(g−c)/(g+c)³, dB/dg = 4c(1−c²)u/v³, dg/dn = n/g.
-    let da = 4.0 * c * q * igp * igp;
-    let db = 4.0 * c * (1.0 - c * c) * t * iv * iv;
-    let dn = if g > 0.0 {
-        0.5 * (da * (1.0 + b) + a * db) * n / g
-    } else {
-        0.0
-    };
-    (f, dn)
-}
-
-/// Fresnel reflectance in the trigonometric form Blinn quotes:
-/// F = ½ (sin²(φ−θ)/sin²(φ+θ) + tan²(φ−θ)/tan²(φ+θ)), sinθ = sinφ/n, φ = acos(c).
-///
-/// At normal incidence (0/0) it returns the limit ((n−1)/(n+1))².
-pub fn fresnel_trig(n: f64, c: f64) -> f64 {
-    let phi = c.clamp(0.0, 1.0).acos();
-    if phi < 1e-6 {
-        let r = (n - 1.0) / (n + 1.0);
-        return r * r;
-    }
-    let theta = (phi.sin() / n).asin();
-    let s = (phi - theta).sin() / (phi + theta).sin();
-    let t = (phi - theta).tan() / (phi + theta).tan();
-    0.5 * (s * s + t * t)
-}
-
-/// Normal-incidence reflectance F0 = ((n−1)/(n+1))².
-pub fn f0_from_n(n: f64) -> f64 {
-    let r = (n - 1.0) / (n + 1.0);
-    r * r
-}
-
-/// Inverse of [`f0_from_n`]: n = (1 + √F0)/(1 − √F0) for 0 ≤ F0 < 1.
-pub fn n_from_f0(f0: f64) -> f64 {
-    let s = f0.clamp(0.0, 1.0).sqrt();
-    (1.0 + s) / (1.0 - s)
-}
-
 /// Blinn's geometrical attenuation G = min(1, 2(N·H)(N·E)/(E·H), 2(N·H)(N·L)/(E·H)).
 pub fn geometric_attenuation(g: &Geometry) -> f64 {
     if g.eh <= 0.0 {
@@ -195,163 +138,33 @@ pub fn g_over_ne(g: &Geometry) -> f64 {
     }
 }
 
-/// Micro-facet distribution of Blinn 1977 ("Facet distribution functions"), each with peak 1.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum Distribution {
-    /// D1 = cos^c1 α (Phong's distribution).
-    D1,
-    /// D2 = exp(−(α c2)²) (Gaussian, Torrance–Sparrow).
-    D2,
-    /// D3 = (c3² / (cos²α (c3² − 1) + 1))² (Trowbridge–Reitz; GGX with α = c3).
-    #[default]
-    D3,
-}
-
-impl Distribution {
-    /// Name of the distribution's shape parameter: `c1`, `c2` or `c3`.
-    pub fn param_name(self) -> &'static str {
-        match self {
-            Distribution::D1 => "c1",
-            Distribution::D2 => "c2",
-            Distribution::D3 => "c3",
-        }
-    }
-
-    /// Lower-case name (`d1`, `d2`, `d3`).
-    pub fn name(self) -> &'static str {
-        match self {
-            Distribution::D1 => "d1",
-            Distribution::D2 => "d2",
-            Distribution::D3 => "d3",
-        }
-    }
-
-    /// Parse `d1`, `d2` or `d3`.
-    pub fn parse(s: &str) -> Option<Self> {
-        match s.to_ascii_lowercase().as_str() {
-            "d1" => Some(Distribution::D1),
-            "d2" => Some(Distribution::D2),
-            "d3" => Some(Distribution::D3),
-            _ => None,
-        }
-    }
-
-    /// D(α) at cos α = `nh` for shape parameter `c`.
-    pub fn eval(self, nh: f64, c: f64) -> f64 {
-        self.eval_dc(nh, c).0
-    }
-
-    /// D and dD/dc at cos α = `nh`.
-    #[inline]
-    pub fn eval_dc(self, nh: f64, c: f64) -> (f64, f64) {
-        let nh = nh.clamp(0.0, 1.0);
-        match self {
-            Distribution::D1 => {
-                if nh <= 0.0 {
-                    return (0.0, 0.0);
-                }
-                let d = nh.powf(c);
-                (d, d * nh.ln())
-            }
-            Distribution::D2 => {
-                let a = nh.acos();
-                let d = (-(a * c) * (a * c)).exp();
-                (d, -2.0 * a * a * c * d)
-            }
-            Distribution::D3 => {
-                let s = c * c;
-                let x = nh * nh;
-                let den = x * (s - 1.0) + 1.0;
-                if den <= 0.0 {
-                    return (0.0, 0.0);
-                }
-                let q = s / den;
-                // dD/dc = 4 c³ (1 − x) / den³.
-                (q * q, 4.0 * c * s * (1.0 - x) / (den * den * den))
-            }
-        }
-    }
-
-    /// The shape parameter for which D falls to ½ at half-angle `beta` (radians), Blinn's
-    /// c1(β) = −ln2/ln cosβ, c2(β) = √ln2/β, c3(β) = ((cos²β − 1)/(cos²β − √2))^½.
-    pub fn param_from_beta(self, beta: f64) -> f64 {
-        let cb = beta.cos();
-        match self {
-            Distribution::D1 => -std::f64::consts::LN_2 / cb.ln(),
-            Distribution::D2 => std::f64::consts::LN_2.sqrt() / beta,
-            Distribution::D3 => {
-                let x = cb * cb;
-                ((x - 1.0) / (x - std::f64::consts::SQRT_2)).sqrt()
-            }
-        }
-    }
-}
-
-/// Blinn's texture-modulated D3 (Figure 8): C3 = Cmin + (1 − Cmin) t,
-/// D3 = [Cmin C3 / (cos²α (C3² − 1) + 1)]², normalized by the surface's minimum `cmin`
-/// so that the peak never exceeds 1 however the texture value `t` ∈ [0, 1] varies.
-pub fn d3_textured(nh: f64, cmin: f64, t: f64) -> f64 {
-    let c3 = cmin + (1.0 - cmin) * t.clamp(0.0, 1.0);
-    let x = nh.clamp(0.0, 1.0).powi(2);
-    let den = x * (c3 * c3 - 1.0) + 1.0;
-    if den <= 0.0 {
-        return 0.0;
-    }
-    let q = cmin * c3 / den;
-    q * q
-}
-
-/// Phong's fast power from the Phong article: max(0, x)^α ≈ max(0, 1 − βλ)^γ with λ = 1 − x,
-/// γ = 2^k and β = α/γ, computed by squaring k times (Lyon 1993).
-///
-/// Measured against `powf` for x ∈ [0, 1] and α = 64…1000 (test `fast_phong_error`): the
-/// maximum absolute error is 0.074 for k = 2, 0.035 for k = 3, 0.017 for k = 4, 0.0083 for
-/// k = 5 and 0.0040 for k = 6 — it halves with each k — provided α ≥ γ (β ≥ 1). It is largest on
-/// the flank of the lobe, never at the peak (both are 1 at x = 1). For α < γ the error grows again
-/// (k = 6 with α = 16 reaches 0.013), so pick γ ≤ α.
-pub fn fast_phong_pow(x: f64, alpha: f64, k: u32) -> f64 {
-    fast_phong_pow_da(x, alpha, k).0
-}
-
-/// [`fast_phong_pow`] and its derivative with respect to the exponent α.
-pub fn fast_phong_pow_da(x: f64, alpha: f64, k: u32) -> (f64, f64) {
-    let gamma = (1u64 << k.min(30)) as f64;
-    let lambda = 1.0 - x.min(1.0);
-    let t = 1.0 - alpha / gamma * lambda;
-    if t <= 0.0 {
-        return (0.0, 0.0);
-    }
-    let mut p = t; // t^(2^j)
-    for _ in 0..k.min(30) {
-        p *= p;
-    }
-    // d/dα t^γ = γ t^(γ−1) · (−λ/γ) = −λ t^γ / t.
-    (p, -lambda * p / t)
-}
-
-/// Which reflection model; the parameter set is [`ModelKind::param_names`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Which reflection model. Each family lives in a file of its own in `src/model/` and declares
+/// its parameters ([`ParamSpec`]), its BRDF with the analytic gradient, and how it maps onto
+/// other renderers' materials ([`Material`]); everything else reads those declarations.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum)]
 pub enum ModelKind {
     /// Lambertian diffuse: i = pd N·L.
     Lambert,
     /// Phong: i = pd N·L + ps max(0, R·E)^c1.
     Phong,
     /// Blinn's form of Phong: i = pd N·L + ps max(0, N·H)^c1.
+    #[value(alias = "blinnphong")]
     BlinnPhong,
     /// Blinn's Torrance–Sparrow: i = pd N·L + ps D G F/(N·E).
+    #[value(alias = "ts")]
     TorranceSparrow,
 }
 
 impl ModelKind {
     /// All model kinds, simplest first.
-    pub const ALL: [ModelKind; 4] = [
+    pub const ALL: &[ModelKind] = &[
         ModelKind::Lambert,
         ModelKind::Phong,
         ModelKind::BlinnPhong,
         ModelKind::TorranceSparrow,
     ];
 
-    /// Command-line name: `lambert`, `phong`, `blinn-phong`, `torrance-sparrow`.
+    /// Command-line name: `lambert`, `phong`, `blinn-phong`, `torrance-sparrow`, ….
     pub fn name(self) -> &'static str {
         match self {
             ModelKind::Lambert => "lambert",
@@ -361,43 +174,70 @@ impl ModelKind {
         }
     }
 
-    /// Parse a command-line name (also accepts `ts`).
+    /// Parse a command-line name or alias, ignoring case.
     pub fn parse(s: &str) -> Option<Self> {
-        match s.to_ascii_lowercase().as_str() {
-            "lambert" => Some(ModelKind::Lambert),
-            "phong" => Some(ModelKind::Phong),
-            "blinn-phong" | "blinnphong" => Some(ModelKind::BlinnPhong),
-            "torrance-sparrow" | "ts" => Some(ModelKind::TorranceSparrow),
-            _ => None,
+        use clap::ValueEnum;
+        Self::from_str(s, true).ok()
+    }
+
+    /// The command-line names of every model, comma separated (for messages).
+    pub fn names() -> String {
+        Self::ALL
+            .iter()
+            .map(|k| k.name())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// The facet distributions the model takes (`[D3]`, a placeholder, for models without one).
+    pub fn distributions(self) -> &'static [Distribution] {
+        match self {
+            ModelKind::TorranceSparrow => &[Distribution::D1, Distribution::D2, Distribution::D3],
+            _ => &[Distribution::D3],
+        }
+    }
+
+    /// True when the model has a choice of facet distribution (`--distribution`).
+    pub fn has_distribution(self) -> bool {
+        self.distributions().len() > 1
+    }
+
+    /// Label of the model with its distribution, e.g. `torrance-sparrow (d3)` or `phong`.
+    pub fn label(self, dist: Distribution) -> String {
+        if self.has_distribution() {
+            format!("{} ({})", self.name(), dist.name())
+        } else {
+            self.name().to_string()
         }
     }
 
     /// The parameters' declarations in their fixed order (see [`ParamSpec`]).
     pub fn params(self, dist: Distribution) -> &'static [ParamSpec] {
         match self {
-            ModelKind::Lambert => &[PD],
-            ModelKind::Phong | ModelKind::BlinnPhong => &[C1, PS, PD],
-            ModelKind::TorranceSparrow => match dist {
-                Distribution::D1 => &[N, C1, PS, PD],
-                Distribution::D2 => &[N, C2, PS, PD],
-                Distribution::D3 => &[N, C3, PS, PD],
-            },
+            ModelKind::Lambert => lambert::params(dist),
+            ModelKind::Phong | ModelKind::BlinnPhong => phong::params(dist),
+            ModelKind::TorranceSparrow => torrance_sparrow::params(dist),
         }
     }
 
     /// Parameter names in their fixed order; for torrance-sparrow the shape parameter is
     /// named after the distribution (`c3` for D3).
-    pub fn param_names(self, dist: Distribution) -> &'static [&'static str] {
-        match self {
-            ModelKind::Lambert => &["pd"],
-            ModelKind::Phong | ModelKind::BlinnPhong => &["c1", "ps", "pd"],
-            ModelKind::TorranceSparrow => match dist {
-                Distribution::D1 => &["n", "c1", "ps", "pd"],
-                Distribution::D2 => &["n", "c2", "ps", "pd"],
-                Distribution::D3 => &["n", "c3", "ps", "pd"],
-            },
-        }
+    pub fn param_names(self, dist: Distribution) -> Vec<&'static str> {
+        self.params(dist).iter().map(|s| s.name).collect()
     }
+
+    /// The position of the parameter with `role`, if the model has one.
+    pub fn index_of(self, dist: Distribution, role: Role) -> Option<usize> {
+        self.params(dist).iter().position(|s| s.role == role)
+    }
+}
+
+/// Every (model, distribution) pair `--model all` compares, simplest first.
+pub fn catalogue() -> Vec<(ModelKind, Distribution)> {
+    ModelKind::ALL
+        .iter()
+        .flat_map(|&k| k.distributions().iter().map(move |&d| (k, d)))
+        .collect()
 }
 
 impl fmt::Display for ModelKind {
@@ -439,12 +279,28 @@ pub const HALF_WIDTHS_DEG: [f64; 19] = [
     55.0, 70.0,
 ];
 
+/// What a parameter does in the model, for the code that must know (the fitter solves the
+/// linear ones at each grid point; one incidence angle cannot separate an index from ps).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Role {
+    /// A Fresnel index of refraction.
+    Index,
+    /// A lobe shape parameter (exponent, width, roughness).
+    Shape,
+    /// The specular coefficient: f_r is linear in it.
+    Specular,
+    /// The diffuse coefficient pd: f_r is linear in it, f_r ∋ pd/π.
+    Diffuse,
+}
+
 /// Everything the fitter, the CLI and the reports need to know about one model parameter,
 /// declared once ([`ModelKind::params`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ParamSpec {
     /// Name as in `--set`, `--fix` and the JSON.
     pub name: &'static str,
+    /// What it does in the model.
+    pub role: Role,
     /// What it means, for help and reports.
     pub meaning: &'static str,
     /// Admissible range for fitting (natural units, inclusive).
@@ -461,6 +317,9 @@ pub struct ParamSpec {
     pub random: (f64, f64),
     /// A fitted value at or above this is not physically usable (e.g. n ≥ 1e6).
     pub absurd_above: f64,
+    /// Slider of an exported BRDF Explorer shader: the low end, and the high end (fixed when
+    /// the parameter's own bound `hi` is ≤ 1, else twice the larger of it and the value).
+    pub slider: (f64, f64),
 }
 
 impl ParamSpec {
@@ -477,8 +336,9 @@ impl ParamSpec {
     }
 }
 
-const PS: ParamSpec = ParamSpec {
+pub(crate) const PS: ParamSpec = ParamSpec {
     name: "ps",
+    role: Role::Specular,
     meaning: "specular coefficient",
     lo: 0.0,
     hi: f64::INFINITY,
@@ -487,9 +347,12 @@ const PS: ParamSpec = ParamSpec {
     start: 0.5,
     random: (1e-2, 1e3),
     absurd_above: f64::INFINITY,
+    slider: (0.0, 1.0),
 };
-const PD: ParamSpec = ParamSpec {
+
+pub(crate) const PD: ParamSpec = ParamSpec {
     name: "pd",
+    role: Role::Diffuse,
     meaning: "diffuse coefficient (albedo of the Lambertian part)",
     lo: 0.0,
     hi: f64::INFINITY,
@@ -498,56 +361,82 @@ const PD: ParamSpec = ParamSpec {
     start: 0.5,
     random: (1e-3, 1.0),
     absurd_above: f64::INFINITY,
+    slider: (0.0, 1.0),
 };
-const N: ParamSpec = ParamSpec {
-    name: "n",
-    meaning: "index of refraction of the Fresnel term (Blinn 1977, eq. for F)",
-    lo: 1.0 + 1e-4,
-    hi: 1e7,
-    scale: Scale::Log { offset: 1.0 },
-    // n − 1 from 0.003 (F0 ≈ 2e-6) to 3000 (F0 ≈ 0.9987, a metal's effective index).
-    grid: Grid::Values(&[
-        1.003, 1.007, 1.015, 1.03, 1.06, 1.12, 1.25, 1.5, 2.0, 3.0, 5.0, 9.0, 17.0, 41.0, 101.0,
-        401.0, 3001.0,
-    ]),
-    start: 1.5,
-    random: (1.01, 101.0),
-    absurd_above: 1e6,
-};
-/// Exponent of a cosine lobe: Phong's and Blinn–Phong's c1, and D1's.
-const C1: ParamSpec = ParamSpec {
-    name: "c1",
-    meaning: "exponent of the cosine lobe (larger = sharper)",
-    lo: 1e-3,
-    hi: 1e8,
-    scale: Scale::Log { offset: 0.0 },
-    grid: Grid::HalfWidth(Distribution::D1),
-    start: 10.0,
-    random: (0.3, 3e4),
-    absurd_above: f64::INFINITY,
-};
-const C2: ParamSpec = ParamSpec {
-    name: "c2",
-    meaning: "inverse width of the Gaussian facet distribution D2 (1/radian)",
-    lo: 1e-3,
-    hi: 1e6,
-    scale: Scale::Log { offset: 0.0 },
-    grid: Grid::HalfWidth(Distribution::D2),
-    start: 3.0,
-    random: (0.6, 800.0),
-    absurd_above: f64::INFINITY,
-};
-const C3: ParamSpec = ParamSpec {
-    name: "c3",
-    meaning: "eccentricity of the facet ellipsoids in D3 (smaller = sharper)",
-    lo: 1e-5,
-    hi: 1.0,
-    scale: Scale::Log { offset: 0.0 },
-    grid: Grid::HalfWidth(Distribution::D3),
-    start: 0.5,
-    random: (1e-3, 1.0),
-    absurd_above: f64::INFINITY,
-};
+
+/// How a model maps onto the materials of Mitsuba 3 and pbrt-v4: the nearest one, with every
+/// value in the target's own terms, and whether the target's model is the same (`exact`) or
+/// what differs (`differs`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    /// The target material.
+    pub kind: MaterialKind,
+    /// True when the target evaluates the same f_r (Mitsuba 3 unless `exact_pbrt` says otherwise).
+    pub exact: bool,
+    /// What differs from the model where it is not exact (empty when exact).
+    pub differs: String,
+}
+
+/// The materials brdfit exports to.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MaterialKind {
+    /// Lambertian reflectance (Mitsuba `diffuse`, pbrt `diffuse`).
+    Diffuse {
+        /// Albedo.
+        reflectance: f64,
+    },
+    /// A GGX dielectric coat over a diffuse base (Mitsuba `roughplastic`, pbrt `coateddiffuse`).
+    Plastic {
+        /// GGX roughness α.
+        alpha: f64,
+        /// Index of the coat.
+        ior: f64,
+        /// Albedo of the base.
+        diffuse: f64,
+    },
+    /// A GGX metal with the target's aluminium optical constants (Mitsuba `roughconductor`
+    /// material Al, pbrt `conductor` metal-Al).
+    Aluminium {
+        /// GGX roughness α.
+        alpha: f64,
+    },
+    /// pd/π plus a GGX–Smith lobe with the unpolarised Fresnel of index `eta` (k = 0) scaled by
+    /// `scale`: Mitsuba `blendbsdf` (weight ½) of `diffuse` (2 pd) and `roughconductor`
+    /// (eta, k = 0, specular_reflectance 2 ps); pbrt `mix` (amount ½) of the same.
+    DiffusePlusConductor {
+        /// pd.
+        diffuse: f64,
+        /// GGX roughness α.
+        alpha: f64,
+        /// Index of the Fresnel term.
+        eta: f64,
+        /// ps.
+        scale: f64,
+    },
+}
+
+/// What differs between Blinn's models and the GGX materials of Mitsuba 3 and pbrt-v4.
+pub(crate) const DIFFERS_BLINN: &str = "What differs from brdfit's model: Mitsuba and pbrt use Smith masking instead of Blinn's V-groove G, a normalised GGX instead of Blinn's D3 with peak 1 (D3 = pi c3^2 D_GGX), and energy from the Fresnel term instead of the free scale ps; pd maps to the diffuse reflectance directly.";
+
+/// The nearest material for a Blinn model with GGX roughness `alpha` (None: no lobe), Fresnel
+/// index `n` (None: no Fresnel term; 1.5 is used) and diffuse albedo `pd`: a metal-like fit
+/// (F0 > 0.5) is exported as aluminium, any other as a plastic.
+pub(crate) fn blinn_material(alpha: Option<f64>, n: Option<f64>, pd: f64) -> Material {
+    let kind = match (alpha, n) {
+        (None, _) => MaterialKind::Diffuse { reflectance: pd },
+        (Some(alpha), Some(n)) if f0_from_n(n) > 0.5 => MaterialKind::Aluminium { alpha },
+        (Some(alpha), n) => MaterialKind::Plastic {
+            alpha,
+            ior: n.unwrap_or(1.5),
+            diffuse: pd,
+        },
+    };
+    Material {
+        kind,
+        exact: false,
+        differs: DIFFERS_BLINN.into(),
+    }
+}
 
 /// An invalid model specification, with the fix.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -687,32 +576,42 @@ impl Model {
         .expect("valid constants")
     }
 
+    /// The parameters' declarations in order.
+    pub fn specs(&self) -> &'static [ParamSpec] {
+        self.kind.params(self.dist)
+    }
+
     /// Parameter names in order.
-    pub fn param_names(&self) -> &'static [&'static str] {
+    pub fn param_names(&self) -> Vec<&'static str> {
         self.kind.param_names(self.dist)
     }
 
     /// Parameter values in order.
     pub fn params(&self) -> &[f64] {
-        &self.p[..self.param_names().len()]
+        &self.p[..self.specs().len()]
     }
 
-    /// The diffuse coefficient pd (every model's last parameter).
+    /// The value of the parameter with `role`, if the model has one.
+    pub fn role(&self, role: Role) -> Option<f64> {
+        self.kind.index_of(self.dist, role).map(|i| self.p[i])
+    }
+
+    /// The diffuse coefficient pd (every model has one).
     #[inline]
     pub fn pd(&self) -> f64 {
-        self.p[self.param_names().len() - 1]
+        self.role(Role::Diffuse).unwrap_or(0.0)
     }
 
     /// Value of the parameter `name`, if the model has it.
     pub fn get(&self, name: &str) -> Option<f64> {
-        let i = self.param_names().iter().position(|n| *n == name)?;
+        let i = self.specs().iter().position(|s| s.name == name)?;
         Some(self.p[i])
     }
 
     /// Same model with new parameter values (not bounds-checked; the fitter keeps them in bounds).
     pub fn with_params(&self, params: &[f64]) -> Self {
         let mut m = *self;
-        let k = self.param_names().len();
+        let k = self.specs().len();
         m.p[..k].copy_from_slice(&params[..k]);
         m
     }
@@ -733,49 +632,34 @@ impl Model {
     /// hold at least as many entries as the model has parameters).
     #[inline]
     pub fn brdf_grad(&self, g: &Geometry, grad: &mut [f64]) -> f64 {
-        let k = self.param_names().len();
+        let k = self.specs().len();
         grad[..k].iter_mut().for_each(|x| *x = 0.0);
         if !g.visible() {
             return 0.0;
         }
-        let p = &self.p;
         match self.kind {
-            ModelKind::Lambert => {
-                grad[0] = FRAC_1_PI;
-                p[0] * FRAC_1_PI
-            }
-            ModelKind::Phong | ModelKind::BlinnPhong => {
-                let (c1, ps, pd) = (p[0], p[1], p[2]);
-                let x = if self.kind == ModelKind::Phong {
-                    g.re
-                } else {
-                    g.nh
-                };
-                let (s, ds) = if x <= 0.0 {
-                    (0.0, 0.0)
-                } else if let (Some(k), ModelKind::Phong) = (self.fast_pow, self.kind) {
-                    fast_phong_pow_da(x, c1, k)
-                } else {
-                    let s = x.powf(c1);
-                    (s, s * x.ln())
-                };
-                let w = FRAC_1_PI / g.nl;
-                grad[0] = ps * ds * w;
-                grad[1] = s * w;
-                grad[2] = FRAC_1_PI;
-                pd * FRAC_1_PI + ps * s * w
-            }
-            ModelKind::TorranceSparrow => {
-                let (n, c, ps, pd) = (p[0], p[1], p[2], p[3]);
-                let (d, dd) = self.dist.eval_dc(g.nh, c);
-                let (f, df) = fresnel_dn(n, g.eh);
-                let w = g.g_ne * FRAC_1_PI / g.nl;
-                grad[0] = ps * d * df * w;
-                grad[1] = ps * dd * f * w;
-                grad[2] = d * f * w;
-                grad[3] = FRAC_1_PI;
-                pd * FRAC_1_PI + ps * d * f * w
-            }
+            ModelKind::Lambert => lambert::brdf_grad(self, g, grad),
+            ModelKind::Phong | ModelKind::BlinnPhong => phong::brdf_grad(self, g, grad),
+            ModelKind::TorranceSparrow => torrance_sparrow::brdf_grad(self, g, grad),
+        }
+    }
+
+    /// How the model maps onto other renderers' materials (see [`Material`]).
+    pub fn material(&self) -> Material {
+        match self.kind {
+            ModelKind::Lambert => lambert::material(self),
+            ModelKind::Phong | ModelKind::BlinnPhong => phong::material(self),
+            ModelKind::TorranceSparrow => torrance_sparrow::material(self),
+        }
+    }
+
+    /// The BRDF as the body of a GLSL function of N, L, V (NdotL, NdotV > 0 and PI defined;
+    /// the parameters are uniforms of their own names), for Disney's BRDF Explorer.
+    pub fn glsl(&self) -> String {
+        match self.kind {
+            ModelKind::Lambert => lambert::glsl(self),
+            ModelKind::Phong | ModelKind::BlinnPhong => phong::glsl(self),
+            ModelKind::TorranceSparrow => torrance_sparrow::glsl(self),
         }
     }
 }
@@ -820,38 +704,9 @@ pub fn short(v: f64) -> String {
     }
 }
 
-/// Blinn's Phong ((N·H)^c1, `blinn-phong`) with the same half-angle β as a torrance-sparrow
-/// model's distribution, its ps set to ps·F0 so both highlights agree at normal incidence,
-/// and the same pd: the "equal β" comparison of Blinn's Figures 5–7.
-pub fn equal_beta_phong(ts: &Model) -> Model {
-    let c = ts.p[1];
-    // β where the distribution falls to ½.
-    let beta = match ts.dist {
-        Distribution::D1 => (0.5f64).powf(1.0 / c).acos(),
-        Distribution::D2 => std::f64::consts::LN_2.sqrt() / c,
-        Distribution::D3 => {
-            let s = c * c;
-            ((s * std::f64::consts::SQRT_2 - 1.0) / (s - 1.0))
-                .clamp(0.0, 1.0)
-                .sqrt()
-                .acos()
-        }
-    };
-    let c1 = Distribution::D1.param_from_beta(beta);
-    Model {
-        kind: ModelKind::BlinnPhong,
-        dist: Distribution::D3,
-        p: [c1, ts.p[2] * f0_from_n(ts.p[0]), ts.p[3], 0.0],
-        fast_pow: None,
-    }
-}
-
 impl fmt::Display for Model {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}", self.kind)?;
-        if self.kind == ModelKind::TorranceSparrow {
-            write!(f, " ({})", self.dist.name())?;
-        }
+        write!(f, "{}", self.kind.label(self.dist))?;
         for (n, v) in self.param_names().iter().zip(self.params()) {
             write!(f, " {n}={}", short(*v))?;
         }
