@@ -36,8 +36,8 @@ impl ExportFormat {
 }
 
 /// The material line's comment: the model, and whether the target's model is the same.
-fn heading(m: &Model, mat: &Material) -> String {
-    if mat.exact {
+fn heading(m: &Model, mat: &Material, exact: bool) -> String {
+    if exact {
         format!("brdfit export of {m}\n     The target evaluates the same f_r (exact).")
     } else {
         format!("brdfit export of {m}\n     {}", mat.differs)
@@ -47,7 +47,7 @@ fn heading(m: &Model, mat: &Material) -> String {
 /// Mitsuba 3 BSDF XML snippet.
 pub fn mitsuba(m: &Model, id: &str) -> String {
     let mat = m.material();
-    let mut s = format!("<!-- {} -->\n", heading(m, &mat));
+    let mut s = format!("<!-- {} -->\n", heading(m, &mat, mat.exact));
     s += &match mat.kind {
         MaterialKind::Diffuse { reflectance } => format!(
             "<bsdf type=\"diffuse\" id=\"{id}\">\n    <rgb name=\"reflectance\" value=\"{0}, {0}, {0}\"/>\n</bsdf>\n",
@@ -91,7 +91,9 @@ pub fn mitsuba(m: &Model, id: &str) -> String {
 /// pbrt-v4 material line.
 pub fn pbrt(m: &Model) -> String {
     let mat = m.material();
-    let head = format!("# {}\n", heading(m, &mat).replace("\n     ", "\n# "));
+    // pbrt-v4 has no sum of a diffuse and a conductor lobe (see below).
+    let exact = mat.exact && !matches!(mat.kind, MaterialKind::DiffusePlusConductor { .. });
+    let head = format!("# {}\n", heading(m, &mat, exact).replace("\n     ", "\n# "));
     head + &match mat.kind {
         MaterialKind::Diffuse { reflectance } => format!(
             "Material \"diffuse\" \"rgb reflectance\" [ {0} {0} {0} ]\n",

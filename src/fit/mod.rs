@@ -18,9 +18,7 @@ pub mod problem;
 use crate::data::Dataset;
 use crate::lanes::{self, LANES};
 use crate::model::Geometry;
-use crate::model::{
-    Distribution, Model, ModelKind, ParamSpec, Role, Scale, param_bounds, readable,
-};
+use crate::model::{Distribution, Model, ModelKind, ParamSpec, Role, Scale, readable};
 use lsq::{Limits, Method, Problem, Robust, Solution};
 use problem::{BrdfProblem, Loss, Rows, Slot, Transform};
 use std::time::Instant;
@@ -504,14 +502,14 @@ fn fill_rows(
 pub fn fit(ds: &Dataset, opts: &FitOptions) -> Result<Vec<FitResult>, FitError> {
     let names = opts.kind.param_names(opts.dist);
     for (k, v) in opts.fix.iter().chain(&opts.start) {
-        if !names.contains(&k.as_str()) {
+        let Some(spec) = opts.kind.params(opts.dist).iter().find(|s| s.name == k) else {
             return Err(fit_error(
                 format!("model {} has no parameter {k}", opts.kind),
                 format!("its parameters are {}", names.join(", ")),
             ));
-        }
-        let (ok, bounds) = param_bounds(k, *v);
-        if !ok {
+        };
+        let bounds = spec.bounds_text();
+        if !spec.admits(*v) {
             return Err(fit_error(
                 format!("{k} = {v} is outside its bounds ({bounds})"),
                 format!("choose a value with {bounds}"),

@@ -323,6 +323,37 @@ pub struct ParamSpec {
 }
 
 impl ParamSpec {
+    /// Whether a value may be given to the model: finite, within [lo, hi] for a linear
+    /// parameter, above the offset (≥ 1 for n, > 0 otherwise) and ≤ hi for a log-scale one.
+    pub fn admits(&self, v: f64) -> bool {
+        let above = match self.scale {
+            Scale::Linear => v >= self.lo,
+            Scale::Log { offset } if offset > 0.0 => v >= offset,
+            Scale::Log { offset } => v > offset,
+        };
+        v.is_finite() && above && v <= self.hi
+    }
+
+    /// The admissible values as text, e.g. `0 < c3 ≤ 1` or `ps ≥ 0`.
+    pub fn bounds_text(&self) -> String {
+        let (low, op) = match self.scale {
+            Scale::Linear => (self.lo, "≤"),
+            Scale::Log { offset } if offset > 0.0 => (offset, "≤"),
+            Scale::Log { offset } => (offset, "<"),
+        };
+        if self.hi.is_finite() {
+            format!(
+                "{} {op} {} ≤ {}",
+                readable(low),
+                self.name,
+                readable(self.hi)
+            )
+        } else {
+            let op = if op == "≤" { "≥" } else { ">" };
+            format!("{} {op} {}", self.name, readable(low))
+        }
+    }
+
     /// The grid values of the global initialisation (empty for linear parameters).
     pub fn grid_values(&self) -> Vec<f64> {
         match self.grid {
@@ -371,7 +402,8 @@ pub(crate) const PD: ParamSpec = ParamSpec {
 pub struct Material {
     /// The target material.
     pub kind: MaterialKind,
-    /// True when the target evaluates the same f_r (Mitsuba 3 unless `exact_pbrt` says otherwise).
+    /// True when Mitsuba 3 evaluates the same f_r (pbrt-v4 too, except for
+    /// [`MaterialKind::DiffusePlusConductor`], which pbrt can only approximate).
     pub exact: bool,
     /// What differs from the model where it is not exact (empty when exact).
     pub differs: String,
@@ -467,19 +499,8 @@ pub enum ModelError {
         /// Given value.
         value: f64,
         /// Human-readable bounds.
-        bounds: &'static str,
+        bounds: String,
     },
-}
-
-/// Human-readable bounds of a parameter, and whether `v` satisfies them.
-pub fn param_bounds(name: &str, v: f64) -> (bool, &'static str) {
-    match name {
-        "n" => (v >= 1.0 && v.is_finite(), "n ≥ 1 (index of refraction)"),
-        "c3" => (v > 0.0 && v <= 1.0, "0 < c3 ≤ 1"),
-        "c1" | "c2" => (v > 0.0 && v.is_finite(), "a positive finite number"),
-        "ps" | "pd" => (v >= 0.0 && v.is_finite(), "a finite number ≥ 0"),
-        _ => (v.is_finite(), "finite"),
-    }
 }
 
 /// A reflection model with its parameter values: a small value type evaluated per sample.
@@ -498,21 +519,19 @@ pub struct Model {
 impl Model {
     /// Model from parameter values in [`ModelKind::param_names`] order, checked against bounds.
     pub fn new(kind: ModelKind, dist: Distribution, params: &[f64]) -> Result<Self, ModelError> {
-        let names = kind.param_names(dist);
         let mut p = [0.0; 4];
-        for (i, name) in names.iter().enumerate() {
+        for (i, spec) in kind.params(dist).iter().enumerate() {
             let Some(&v) = params.get(i) else {
                 return Err(ModelError::Missing {
                     model: kind.name(),
-                    name,
+                    name: spec.name,
                 });
             };
-            let (ok, bounds) = param_bounds(name, v);
-            if !ok {
+            if !spec.admits(v) {
                 return Err(ModelError::OutOfBounds {
-                    name,
+                    name: spec.name,
                     value: v,
-                    bounds,
+                    bounds: spec.bounds_text(),
                 });
             }
             p[i] = v;
