@@ -658,9 +658,9 @@ fn fit_group(
         }
         starts.push(rows.len());
     }
-    let mut template = Model::new(kind, opts.dist, &[1.5, 0.5, 0.5, 0.5]).unwrap_or_else(|_| {
-        Model::new(kind, opts.dist, &[10.0, 0.5, 0.5, 0.5]).expect("valid template")
-    });
+    // The template's values are placeholders: each parameter's declared start.
+    let declared: Vec<f64> = model_specs.iter().map(|s| s.start).collect();
+    let mut template = Model::new(kind, opts.dist, &declared).expect("declared starts are valid");
     template.fast_pow = opts.fast_pow;
     let full = BrdfProblem {
         template,
