@@ -41,6 +41,9 @@ fn model_strategy() -> impl Strategy<Value = Model> {
             )
             .unwrap()
         }),
+        (0.02..1.0f64, 1.01..300.0f64, 0.0..2.0f64, 0.0..1.0f64).prop_map(|(a, n, ps, pd)| {
+            Model::new(ModelKind::GgxSmith, Distribution::D3, &[a, n, ps, pd]).unwrap()
+        }),
     ]
 }
 
@@ -75,6 +78,14 @@ proptest! {
     fn brdf_is_finite_and_non_negative(m in model_strategy(), a in angles()) {
         let f = m.brdf(&Geometry::from_angles(a[0], a[1], a[2], a[3]));
         prop_assert!(f.is_finite() && f >= 0.0, "{} at {:?}: {}", m, a, f);
+    }
+
+    #[test]
+    fn ggx_smith_reciprocal(alpha in 0.02..1.0f64, n in 1.01..300.0f64, a in angles()) {
+        let m = Model::new(ModelKind::GgxSmith, Distribution::D3, &[alpha, n, 0.7, 0.3]).unwrap();
+        let f1 = m.brdf(&Geometry::from_angles(a[0], a[1], a[2], a[3]));
+        let f2 = m.brdf(&Geometry::from_angles(a[2], a[3], a[0], a[1]));
+        prop_assert!((f1 - f2).abs() <= 1e-10 * (1.0 + f1.abs()));
     }
 
     #[test]

@@ -17,6 +17,7 @@
 //!
 //! Blinn's `c3` equals the GGX roughness α of modern renderers: D3 = π c3² D_GGX.
 
+mod ggx_smith;
 mod lambert;
 mod phong;
 mod torrance_sparrow;
@@ -153,6 +154,8 @@ pub enum ModelKind {
     /// Blinn's Torrance–Sparrow: i = pd N·L + ps D G F/(N·E).
     #[value(alias = "ts")]
     TorranceSparrow,
+    /// GGX–Smith (Walter et al. 2007): f_r = pd/π + ps F D G1 G1 / (4 N·L N·E).
+    GgxSmith,
 }
 
 impl ModelKind {
@@ -162,6 +165,7 @@ impl ModelKind {
         ModelKind::Phong,
         ModelKind::BlinnPhong,
         ModelKind::TorranceSparrow,
+        ModelKind::GgxSmith,
     ];
 
     /// Command-line name: `lambert`, `phong`, `blinn-phong`, `torrance-sparrow`, ….
@@ -171,6 +175,7 @@ impl ModelKind {
             ModelKind::Phong => "phong",
             ModelKind::BlinnPhong => "blinn-phong",
             ModelKind::TorranceSparrow => "torrance-sparrow",
+            ModelKind::GgxSmith => "ggx-smith",
         }
     }
 
@@ -217,6 +222,7 @@ impl ModelKind {
             ModelKind::Lambert => lambert::params(dist),
             ModelKind::Phong | ModelKind::BlinnPhong => phong::params(dist),
             ModelKind::TorranceSparrow => torrance_sparrow::params(dist),
+            ModelKind::GgxSmith => ggx_smith::params(dist),
         }
     }
 
@@ -660,6 +666,7 @@ impl Model {
             ModelKind::Lambert => lambert::brdf_grad(self, g, grad),
             ModelKind::Phong | ModelKind::BlinnPhong => phong::brdf_grad(self, g, grad),
             ModelKind::TorranceSparrow => torrance_sparrow::brdf_grad(self, g, grad),
+            ModelKind::GgxSmith => ggx_smith::brdf_grad(self, g, grad),
         }
     }
 
@@ -669,6 +676,7 @@ impl Model {
             ModelKind::Lambert => lambert::material(self),
             ModelKind::Phong | ModelKind::BlinnPhong => phong::material(self),
             ModelKind::TorranceSparrow => torrance_sparrow::material(self),
+            ModelKind::GgxSmith => ggx_smith::material(self),
         }
     }
 
@@ -679,6 +687,7 @@ impl Model {
             ModelKind::Lambert => lambert::glsl(self),
             ModelKind::Phong | ModelKind::BlinnPhong => phong::glsl(self),
             ModelKind::TorranceSparrow => torrance_sparrow::glsl(self),
+            ModelKind::GgxSmith => ggx_smith::glsl(self),
         }
     }
 }
