@@ -47,6 +47,7 @@ fn random_start(kind: ModelKind, dist: Distribution, rng: &mut impl Rng) -> Vec<
                 "c3" => log(1e-3, 1.0),
                 "c1" => log(0.3, 3e4),
                 "c2" => log(0.6, 800.0),
+                "alpha" => log(1e-3, 1.0),
                 "ps" => log(1e-2, 1e3),
                 "pd" => log(1e-3, 1.0),
                 other => panic!("no range for {other}"),
@@ -117,13 +118,7 @@ fn default_pipeline_reaches_the_best_of_64_random_starts_on_every_real_file() {
     files.dedup();
     let models: Vec<String> = fit::all_models()
         .iter()
-        .map(|(k, d)| {
-            if *k == ModelKind::TorranceSparrow {
-                format!("{k} ({})", d.name())
-            } else {
-                k.to_string()
-            }
-        })
+        .map(|(k, d)| k.label(*d))
         .collect();
     println!(
         "\nworst cost ratio, default pipeline / best of 64 random local starts (channels: {}):",
