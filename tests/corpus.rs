@@ -8,16 +8,15 @@
 //! channel of the RGB ones); `BRDFIT_CORPUS=full` runs every channel
 //! (`benches/corpus.sh` prints that table).
 
+mod common;
+
 use brdfit::data::{self, ChannelSelect, Dataset, LoadOptions};
 use brdfit::fit::{self, FitOptions};
 use brdfit::model::{Distribution, ModelKind};
+use common::root;
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use std::path::PathBuf;
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 /// Every real measurement in `data/` and `tests/data/` (the synthetic Blinn sets included, as
 /// they ship), sorted by path.
@@ -116,10 +115,7 @@ fn default_pipeline_reaches_the_best_of_64_random_starts_on_every_real_file() {
     // The table: files × models, worst ratio of pipeline cost to the reference.
     let mut files: Vec<&str> = rows.iter().map(|r| r.file.as_str()).collect();
     files.dedup();
-    let models: Vec<String> = fit::all_models()
-        .iter()
-        .map(|(k, d)| k.label(*d))
-        .collect();
+    let models: Vec<String> = fit::all_models().iter().map(|(k, d)| k.label(*d)).collect();
     println!(
         "\nworst cost ratio, default pipeline / best of 64 random local starts (channels: {}):",
         if full {

@@ -1,22 +1,16 @@
 //! Fitting: round trips on synthetic data with known truth, global minimum from any start,
 //! the chain rule of the transformed problem, model selection, real data, and error cases.
 
-use brdfit::data::{self, ChannelSelect, Dataset, LoadOptions, Quantity};
+mod common;
+
+use brdfit::data::{ChannelSelect, Dataset, Quantity};
 use brdfit::fit::lsq::{self, Problem, Robust};
 use brdfit::fit::problem::{BrdfProblem, Loss, Row, Rows, Slot, Transform};
 use brdfit::fit::{self, FitOptions, FitResult};
 use brdfit::model::{Distribution, Geometry, Model, ModelKind};
 use brdfit::simulate::{Grid, simulate};
+use common::load;
 use rand::{Rng, SeedableRng};
-use std::path::PathBuf;
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn load(f: &str) -> Dataset {
-    data::load(&root().join(f), &LoadOptions::default()).unwrap()
-}
 
 fn ts() -> FitOptions {
     FitOptions::new(ModelKind::TorranceSparrow)

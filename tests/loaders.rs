@@ -1,14 +1,13 @@
 //! Loaders against the real files, cross-format identity, round trips, policies.
 
+mod common;
+
 use brdfit::data::{
     self, ChannelSelect, Dataset, Format, LoadOptions, NegativePolicy, Quantity, merl,
 };
 use brdfit::model::{Geometry, Model};
-use std::path::{Path, PathBuf};
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
+use common::{root, write};
+use std::path::Path;
 
 fn load(p: &Path) -> Dataset {
     data::load(p, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
@@ -224,12 +223,6 @@ fn negative_policies() {
     );
     // The first negative is on line 4 of the file (first data row, blue -0.354828).
     assert_eq!(e.line, Some(4));
-}
-
-fn write(dir: &Path, name: &str, body: &[u8]) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, body).unwrap();
-    p
 }
 
 #[test]

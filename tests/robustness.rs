@@ -1,16 +1,15 @@
 //! Bad input never crashes brdfit: mutated real files, a catalogue of hostile cases, property
 //! tests of the fitter, and named failure modes of the fitter and renderer.
 
+mod common;
+
 use brdfit::data::{self, Dataset, Format, LoadOptions, NegativePolicy, Quantity};
 use brdfit::fit::{self, FitOptions};
 use brdfit::model::{Distribution, Geometry, Model, ModelKind};
+use common::root;
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
-use std::path::{Path, PathBuf};
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
+use std::path::Path;
 
 /// Load a byte string as `name` (its extension picks the reader) under every negative policy;
 /// it must return, not panic.
