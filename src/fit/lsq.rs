@@ -137,16 +137,29 @@ impl Robust {
 }
 
 /// Solver choice.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Default,
+    clap::ValueEnum,
+    serde::Serialize,
+    serde::Deserialize,
+)]
 pub enum Method {
     /// Levenberg–Marquardt (default).
     #[default]
+    #[serde(rename = "lm")]
     Lm,
     /// Gauss–Newton with line search.
     #[value(name = "gn")]
+    #[serde(rename = "gn")]
     GaussNewton,
     /// Nelder–Mead simplex.
     #[value(name = "nm")]
+    #[serde(rename = "nm")]
     NelderMead,
 }
 

@@ -12,6 +12,7 @@
 //!    correlations, and honest warnings (with a profiled range) for parameters the data do not
 //!    determine.
 
+mod json;
 pub mod lsq;
 pub mod problem;
 
@@ -111,11 +112,13 @@ impl FitOptions {
 
 /// The outcome of `--verify K`: K seeded random starts, each refined by the local method (on
 /// the same subsample as the pipeline's candidates, the best one then on every sample).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Verification {
     /// Number of random starts.
+    #[serde(rename = "verify_starts")]
     pub starts: usize,
     /// The lowest cost any of them reached (on every sample).
+    #[serde(rename = "verify_best_cost")]
     pub best_cost: f64,
     /// True when none ended lower than the fit (by more than 1e-6 relative).
     pub verified: bool,
@@ -128,12 +131,14 @@ pub const SAME_MINIMUM: f64 = 1e-6;
 /// parameter |∂cost/∂u| / (‖∂r/∂u‖ ‖r‖), with only the inward part counted at a bound.
 pub const KKT_TOLERANCE: f64 = 1e-3;
 
-/// The outcome of one fit (one channel, or a joint fit of several).
-#[derive(Clone, Debug)]
+/// The outcome of one fit (one channel, or a joint fit of several); its JSON form (serde) is
+/// the fit JSON the README documents.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FitResult {
     /// Model fitted.
     pub model: ModelKind,
-    /// Facet distribution (torrance-sparrow).
+    /// Facet distribution (of models that take one; `d3` otherwise).
+    #[serde(rename = "distribution")]
     pub dist: Distribution,
     /// Loss.
     pub loss: Loss,
@@ -142,12 +147,16 @@ pub struct FitResult {
     /// Channel name(s).
     pub channel: String,
     /// Parameter names and values, model order (per-channel names carry `_<channel>`).
+    #[serde(with = "json::pairs")]
     pub params: Vec<(String, f64)>,
-    /// Standard errors (0 for fixed parameters).
+    /// Standard errors in `params` order (0 for fixed parameters).
+    #[serde(with = "json::floats")]
     pub stderr: Vec<f64>,
     /// Correlation matrix in `params` order.
+    #[serde(default, with = "json::matrix")]
     pub correlation: Vec<Vec<f64>>,
     /// Which parameters were free.
+    #[serde(default)]
     pub free: Vec<bool>,
     /// ½ Σ r² with the declared loss at the returned parameters, on the samples used.
     pub cost: f64,
@@ -156,17 +165,23 @@ pub struct FitResult {
     /// Rows used (samples × channels).
     pub samples_used: usize,
     /// Iterations of the local method, all stages.
+    #[serde(default)]
     pub iterations: usize,
     /// Cost and Jacobian evaluations, all stages.
+    #[serde(default)]
     pub evaluations: usize,
     /// Why the final stage stopped.
+    #[serde(default)]
     pub termination: String,
     /// Wall time of the fit: geometry pass, solve and statistics (no file reading).
+    #[serde(default)]
     pub seconds: f64,
     /// The part of `seconds` spent on the per-sample geometry pass (N·L, N·H, E·H, G and the
     /// targets), which depends on no parameter and is done once per fit.
+    #[serde(default)]
     pub geometry_seconds: f64,
     /// Honest warnings: undetermined parameters with the range that fits, limits reached.
+    #[serde(default)]
     pub warnings: Vec<String>,
     /// Bayesian information criterion m ln(2 cost/m) + k ln m.
     pub bic: f64,
@@ -176,16 +191,23 @@ pub struct FitResult {
     pub n_free: usize,
     /// Profiled ranges of the nonlinear parameters: values within 1 % of the minimum cost
     /// (upper bound ∞ when the range is open).
+    #[serde(default, with = "json::ranges")]
     pub ranges: Vec<(String, f64, f64)>,
     /// Parameters that ended on a bound of their admissible range, with the side (`lower` or
     /// `upper`).
+    #[serde(with = "json::pairs")]
+    #[serde(default)]
     pub at_bound: Vec<(String, String)>,
     /// First-order optimality at the returned point: the largest scaled projected gradient
     /// over the free parameters (see [`KKT_TOLERANCE`]).
+    #[serde(default, with = "json::float")]
     pub kkt_violation: f64,
-    /// The random-start certificate, when one was run.
+    /// The random-start certificate, when one was run (its keys `verified`, `verify_starts`,
+    /// `verify_best_cost` sit in the fit's object).
+    #[serde(flatten)]
     pub verification: Option<Verification>,
     /// Why the fit is not usable as a result; empty when it is.
+    #[serde(default)]
     pub unusable: Vec<String>,
 }
 
@@ -236,78 +258,21 @@ impl FitResult {
 
     /// The JSON object of the fit (schema in the README).
     pub fn to_json(&self) -> serde_json::Value {
-        use serde_json::{Map, Value, json};
-        let mut params = Map::new();
-        let mut stderr = Map::new();
-        for ((n, v), s) in self.params.iter().zip(&self.stderr) {
-            params.insert(n.clone(), json!(v));
-            stderr.insert(n.clone(), json!(s));
-        }
-        let mut o = Map::new();
-        o.insert("model".into(), json!(self.model.name()));
-        o.insert(
-            "distribution".into(),
-            if self.model.has_distribution() {
-                json!(self.dist.name())
-            } else {
-                Value::Null
-            },
-        );
-        o.insert("loss".into(), json!(self.loss.name()));
-        o.insert("method".into(), json!(self.method.name()));
-        o.insert("channel".into(), json!(self.channel));
-        o.insert("params".into(), Value::Object(params));
-        o.insert("stderr".into(), Value::Object(stderr));
-        o.insert("correlation".into(), json!(self.correlation));
-        o.insert("cost".into(), json!(self.cost));
-        o.insert("rmse".into(), json!(self.rmse));
-        o.insert("samples_used".into(), json!(self.samples_used));
-        o.insert("iterations".into(), json!(self.iterations));
-        o.insert("evaluations".into(), json!(self.evaluations));
-        o.insert("termination".into(), json!(self.termination));
-        o.insert("seconds".into(), json!(self.seconds));
-        o.insert("geometry_seconds".into(), json!(self.geometry_seconds));
-        o.insert("warnings".into(), json!(self.warnings));
-        let mut ranges = Map::new();
-        for (n, lo, hi) in &self.ranges {
-            ranges.insert(
-                n.clone(),
-                json!([
-                    lo,
-                    if hi.is_finite() {
-                        json!(hi)
-                    } else {
-                        Value::Null
-                    }
-                ]),
-            );
-        }
-        o.insert("ranges".into(), Value::Object(ranges));
-        let mut at_bound = Map::new();
-        for (n, side) in &self.at_bound {
-            at_bound.insert(n.clone(), json!(side));
-        }
-        o.insert("at_bound".into(), Value::Object(at_bound));
-        o.insert("kkt_violation".into(), json!(self.kkt_violation));
-        match &self.verification {
-            Some(v) => {
-                o.insert("verified".into(), json!(v.verified));
-                o.insert("verify_starts".into(), json!(v.starts));
-                o.insert("verify_best_cost".into(), json!(v.best_cost));
-            }
-            None => {
-                o.insert("verified".into(), Value::Null);
-            }
-        }
-        o.insert("usable".into(), json!(self.usable()));
-        o.insert("unusable".into(), json!(self.unusable));
-        o.insert("aic".into(), json!(self.aic));
-        o.insert("bic".into(), json!(self.bic));
-        Value::Object(o)
+        serde_json::to_value(self).expect("a fit serialises")
     }
 
-    /// Read a fit back from its JSON object.
+    /// Read a fit back from its JSON object; the JSON of earlier versions (standard errors as
+    /// an object, no certificate) is read as far as it goes.
     pub fn from_json(v: &serde_json::Value) -> Result<FitResult, String> {
+        match serde_json::from_value::<FitResult>(v.clone()) {
+            Ok(f) => Ok(f),
+            Err(e) => Self::from_lenient_json(v).map_err(|m| format!("{m} ({e})")),
+        }
+    }
+
+    /// The reader of earlier versions' fit JSON: the model, its parameters and the figures;
+    /// what it lacks is left empty.
+    fn from_lenient_json(v: &serde_json::Value) -> Result<FitResult, String> {
         let s = |k: &str| v.get(k).and_then(|x| x.as_str()).map(str::to_string);
         let model = s("model")
             .and_then(|m| ModelKind::parse(&m))

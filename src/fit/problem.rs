@@ -6,7 +6,18 @@ use crate::lanes::{self, LANES};
 use crate::model::{Distribution, Geometry, Model, ModelKind, ParamSpec, Scale};
 
 /// Which residual the fit minimises (½ Σ r²).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Default,
+    clap::ValueEnum,
+    serde::Serialize,
+    serde::Deserialize,
+)]
+#[serde(rename_all = "lowercase")]
 pub enum Loss {
     /// r = ln(1 + cosθi f_model) − ln(1 + cosθi f_data) (default; balances peak and tail).
     #[default]

@@ -142,7 +142,10 @@ pub fn g_over_ne(g: &Geometry) -> f64 {
 /// Which reflection model. Each family lives in a file of its own in `src/model/` and declares
 /// its parameters ([`ParamSpec`]), its BRDF with the analytic gradient, and how it maps onto
 /// other renderers' materials ([`Material`]); everything else reads those declarations.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "kebab-case")]
 pub enum ModelKind {
     /// Lambertian diffuse: i = pd N·L.
     Lambert,
@@ -153,6 +156,7 @@ pub enum ModelKind {
     BlinnPhong,
     /// Blinn's Torrance–Sparrow: i = pd N·L + ps D G F/(N·E).
     #[value(alias = "ts")]
+    #[serde(alias = "ts")]
     TorranceSparrow,
     /// GGX–Smith (Walter et al. 2007): f_r = pd/π + ps F D G1 G1 / (4 N·L N·E).
     GgxSmith,

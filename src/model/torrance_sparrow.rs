@@ -170,7 +170,18 @@ pub fn n_from_f0(f0: f64) -> f64 {
 }
 
 /// Micro-facet distribution of Blinn 1977 ("Facet distribution functions"), each with peak 1.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Default,
+    clap::ValueEnum,
+    serde::Serialize,
+    serde::Deserialize,
+)]
+#[serde(rename_all = "lowercase")]
 pub enum Distribution {
     /// D1 = cos^c1 α (Phong's distribution).
     D1,
