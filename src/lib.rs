@@ -3,8 +3,27 @@
 //! Fit reflection models to measured reflectance and analyse the result.
 //!
 //! The data flows through the modules in order: [`data`] (samples and loaders) →
-//! [`model`] (the BRDFs of Phong 1975 and Blinn 1977, with analytic gradients) → fit, plot,
-//! render and report. [`simulate`] makes synthetic samples; [`output`] writes files atomically.
+//! [`model`] (the BRDFs of Phong 1975, Blinn 1977 and GGX–Smith, with analytic gradients) →
+//! fit, plot, render and report. [`simulate`] makes synthetic samples; [`output`] writes files
+//! atomically. The items most programs need are re-exported here.
+//!
+//! Fitting Blinn's Torrance–Sparrow model to samples from Rust:
+//!
+//! ```
+//! use brdfit::{FitOptions, Model, ModelKind, fit, simulate};
+//! use brdfit::simulate::Grid;
+//!
+//! // Blinn's magnesium oxide, sampled on 2,000 hemisphere directions with 1 % noise.
+//! let truth = Model::blinn_mgo();
+//! let samples = simulate(&truth, &Grid::Hemisphere(2000).directions(1), 0.01, 1);
+//! let mut options = FitOptions::new(ModelKind::TorranceSparrow);
+//! options.verify = 4; // four random starts must not find a lower cost
+//! let result = fit(&samples, &options)?.remove(0);
+//! assert!(result.usable());
+//! assert!((result.get("c3").unwrap() - 0.35).abs() < 0.01);
+//! println!("{}", serde_json::to_string_pretty(&result).unwrap());
+//! # Ok::<(), brdfit::fit::FitError>(())
+//! ```
 
 #![warn(missing_docs)]
 // Numeric code indexes parallel arrays (struct-of-arrays); index loops are the clear form.
@@ -24,3 +43,10 @@ pub mod render;
 pub mod report;
 pub mod simulate;
 pub mod study;
+
+pub use data::{Dataset, LoadOptions, load};
+pub use fit::{FitError, FitOptions, FitResult, fit};
+pub use model::{Distribution, Geometry, Model, ModelKind};
+pub use render::Scene;
+pub use report::{ReportOptions, report};
+pub use simulate::simulate;
