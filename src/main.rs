@@ -425,14 +425,10 @@ fn write_study_tables(output: &Path, name: &str, title: &str, md: &str, csv: &st
 
 fn study_input(data: &Path, load: &LoadArgs) -> Result<Dataset> {
     let ds = load.load(data)?;
-    Ok(if ds.channels.len() > 1 && load.channel.is_none() {
-        if ds.channels.iter().any(|c| c.wavelength_nm.is_some()) {
-            ds.select(&ChannelSelect::CieY)
-                .map_err(|m| anyhow!("{m}"))?
-        } else {
-            ds.select(&ChannelSelect::Index(0))
-                .map_err(|m| anyhow!("{m}"))?
-        }
+    Ok(if load.channel.is_none() {
+        data::representative_channel(&ds)
+            .map_err(|m| anyhow!("{m}"))?
+            .0
     } else {
         ds
     })
@@ -1302,25 +1298,36 @@ fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
                 .collect();
             serde_json::to_string_pretty(&rows)? + "\n"
         } else {
-            let mut s = String::from("file,channel,model,params,cost,rmse,samples_used,warnings\n");
+            let mut w = csv::Writer::from_writer(Vec::new());
+            w.write_record([
+                "file",
+                "channel",
+                "model",
+                "params",
+                "cost",
+                "rmse",
+                "samples_used",
+                "warnings",
+                "unusable",
+            ])?;
             for (f, fits) in &all {
                 for r in fits {
                     let params: Vec<String> =
                         r.params.iter().map(|(n, v)| format!("{n}={v}")).collect();
-                    s.push_str(&format!(
-                        "\"{}\",{},{},\"{}\",{},{},{},{}\n",
-                        f.display(),
-                        r.channel,
+                    w.write_record([
+                        f.display().to_string(),
+                        r.channel.clone(),
                         r.label(),
                         params.join(" "),
-                        r.cost,
-                        r.rmse,
-                        r.samples_used,
-                        r.warnings.len()
-                    ));
+                        r.cost.to_string(),
+                        r.rmse.to_string(),
+                        r.samples_used.to_string(),
+                        r.warnings.len().to_string(),
+                        r.unusable.join("; "),
+                    ])?;
                 }
             }
-            s
+            String::from_utf8(w.into_inner().map_err(|e| anyhow!("{e}"))?)?
         };
         brdfit::output::write_bytes_atomic(path, text.as_bytes())
             .with_context(|| format!("writing {}", path.display()))?;

@@ -5,7 +5,7 @@
 //! no script), `report.md`, `results.json` (every fit) and `timings.json` (the only file that
 //! changes between runs of the same inputs).
 
-use crate::data::{self, ChannelSelect, Dataset, LoadOptions};
+use crate::data::{self, Dataset, LoadOptions};
 use crate::fit::{self, FitOptions, FitResult};
 use crate::model::{Model, ModelKind};
 use crate::output::write_bytes_atomic;
@@ -186,27 +186,7 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
             .map_or("data".into(), |s| s.to_string_lossy().into_owned());
         say(&format!("{name}: loading"));
         let full = data::load(file, &LoadOptions::default())?;
-        let (ds, channel_note) =
-            if full.channels.iter().any(|c| c.wavelength_nm.is_some()) && full.channels.len() > 1 {
-                (
-                    full.select(&ChannelSelect::CieY)
-                        .map_err(anyhow::Error::msg)?,
-                    "CIE 1931 luminance Y of the spectral channels",
-                )
-            } else if full.channels.len() > 1 {
-                let g = if full.channels.iter().any(|c| c.name == "g") {
-                    "g"
-                } else {
-                    "0"
-                };
-                (
-                    full.select(&ChannelSelect::parse(g))
-                        .map_err(anyhow::Error::msg)?,
-                    "the green channel",
-                )
-            } else {
-                (full.clone(), "the single channel")
-            };
+        let (ds, channel_note) = data::representative_channel(&full).map_err(anyhow::Error::msg)?;
         let dir = name.clone();
         toc.push((name.clone(), name.clone()));
         doc.h(2, &format!("{name} ({})", file.display()), &name);

@@ -561,6 +561,24 @@ fn export_completions_and_batch() {
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("angle columns need a unit"));
     assert_eq!(std::fs::read_to_string(&sum).unwrap().lines().count(), 2);
+    // A file name with a comma and a quote survives the summary CSV (read back with a CSV
+    // reader, every row has the header's fields and the name as written).
+    let odd = dir.path().join("we,ird \"name\".csv");
+    std::fs::copy("data/blinn-mgo.csv", &odd).unwrap();
+    let o = brdfit(&[
+        "fit",
+        odd.to_str().unwrap(),
+        "--summary",
+        sum.to_str().unwrap(),
+        "--force",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut r = csv::Reader::from_path(&sum).unwrap();
+    let width = r.headers().unwrap().len();
+    let rows: Vec<csv::StringRecord> = r.records().map(|x| x.unwrap()).collect();
+    assert_eq!(rows.len(), 1);
+    assert_eq!(rows[0].len(), width);
+    assert_eq!(&rows[0][0], odd.to_str().unwrap());
 }
 
 #[test]

@@ -905,3 +905,28 @@ pub fn summary(ds: &Dataset) -> String {
     }
     s
 }
+
+/// The one channel a multi-channel data set is summarised by when none is chosen (the report,
+/// the studies): CIE 1931 luminance Y of spectral data, the green channel of RGB (else the
+/// first), or the only channel. Returns it with a phrase saying which.
+pub fn representative_channel(ds: &Dataset) -> Result<(Dataset, String), String> {
+    if ds.channels.len() <= 1 {
+        return Ok((ds.clone(), "the single channel".into()));
+    }
+    if ds.channels.iter().any(|c| c.wavelength_nm.is_some()) {
+        return Ok((
+            ds.select(&ChannelSelect::CieY)?,
+            "CIE 1931 luminance Y of the spectral channels".into(),
+        ));
+    }
+    match ds.channels.iter().position(|c| c.name == "g") {
+        Some(g) => Ok((
+            ds.select(&ChannelSelect::Index(g))?,
+            "the green channel".into(),
+        )),
+        None => Ok((
+            ds.select(&ChannelSelect::Index(0))?,
+            format!("the first channel ({})", ds.channels[0].name),
+        )),
+    }
+}
