@@ -333,15 +333,26 @@ pub struct ParamSpec {
 }
 
 impl ParamSpec {
-    /// Whether a value may be given to the model: finite, within [lo, hi] for a linear
-    /// parameter, above the offset (≥ 1 for n, > 0 otherwise) and ≤ hi for a log-scale one.
+    /// Whether a value may be given to the model: finite, ≥ lo for a linear parameter, above
+    /// the offset (≥ 1 for n, > 0 otherwise) for a log-scale one, and ≤ hi where hi is a
+    /// natural limit (≤ 1, as for c3 and α; larger fitting bounds such as n ≤ 1e7 bound the
+    /// search, not the model).
     pub fn admits(&self, v: f64) -> bool {
         let above = match self.scale {
             Scale::Linear => v >= self.lo,
             Scale::Log { offset } if offset > 0.0 => v >= offset,
             Scale::Log { offset } => v > offset,
         };
-        v.is_finite() && above && v <= self.hi
+        v.is_finite() && above && v <= self.natural_hi()
+    }
+
+    /// The upper limit a value may take: `hi` when it is a natural limit (≤ 1), else ∞.
+    fn natural_hi(&self) -> f64 {
+        if self.hi <= 1.0 {
+            self.hi
+        } else {
+            f64::INFINITY
+        }
     }
 
     /// The admissible values as text, e.g. `0 < c3 ≤ 1` or `ps ≥ 0`.
