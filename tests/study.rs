@@ -14,7 +14,9 @@ fn speed_accuracy_covers_every_method_and_model() {
     let truth = study::parse_truth(&ds).expect("the synthetic file carries its truth");
     assert_eq!(truth, Model::blinn_mgo());
     let rows = study::speed_accuracy(&ds, Some(&truth), 1);
-    assert_eq!(rows.len(), 15);
+    // Three methods × every model with a lobe.
+    let models = study::study_models().len();
+    assert_eq!(rows.len(), 3 * models);
     // The true model family fits best, and its parameters are recovered (1 % noise).
     let best = rows
         .iter()
@@ -37,8 +39,8 @@ fn speed_accuracy_covers_every_method_and_model() {
         assert!(!rows.iter().any(|r| r.work < p.0 && r.cost < p.1));
     }
     let (md, csv) = study::speed_tables(&rows, false);
-    assert_eq!(md.lines().count(), 17);
-    assert_eq!(csv.lines().count(), 16);
+    assert_eq!(md.lines().count(), 2 + 3 * models);
+    assert_eq!(csv.lines().count(), 1 + 3 * models);
     assert!(!csv.contains("seconds"));
 }
 

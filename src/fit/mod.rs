@@ -509,110 +509,116 @@ pub fn fit(ds: &Dataset, opts: &FitOptions) -> Result<Vec<FitResult>, FitError> 
     }
 }
 
-/// A reported parameter: name, model index, channel, and its slot.
+/// A reported parameter: its name (with `_<channel>` when per channel) and its slot.
 #[derive(Clone, Debug)]
 struct Entry {
     name: String,
     slot: Slot,
 }
 
-fn fit_group(
-    chans: Vec<ChannelRows>,
+/// The solver variables of a fit: which model parameters are held, shared or per channel.
+struct Layout {
+    transforms: Vec<Transform>,
+    names: Vec<String>,
+    specs: Vec<&'static ParamSpec>,
+    slots: Vec<[Slot; 4]>,
+    entries: Vec<Entry>,
+}
+
+/// Step 1: lay out the solver variables. A held parameter is fixed in every channel; with one
+/// channel (or `shared`) a parameter is one variable, otherwise one per channel.
+fn layout(channels: &[String], opts: &FitOptions) -> Layout {
+    let specs = opts.kind.params(opts.dist);
+    let multi = channels.len() > 1;
+    let mut lay = Layout {
+        transforms: Vec::new(),
+        names: Vec::new(),
+        specs: Vec::new(),
+        slots: vec![[Slot::Fixed(0.0); 4]; channels.len()],
+        entries: Vec::new(),
+    };
+    let held = |name: &str| opts.fix.iter().rev().find(|(k, _)| k == name).map(|f| f.1);
+    let shared = |name: &str| opts.shared.iter().any(|s| s == name);
+    let add = |lay: &mut Layout, j: usize, name: String, chans: std::ops::Range<usize>| {
+        let k = lay.transforms.len();
+        lay.transforms.push(Transform::of(&specs[j]));
+        lay.specs.push(&specs[j]);
+        lay.names.push(name.clone());
+        for c in chans {
+            lay.slots[c][j] = Slot::Free(k);
+        }
+        lay.entries.push(Entry {
+            name,
+            slot: Slot::Free(k),
+        });
+    };
+    for (j, spec) in specs.iter().enumerate() {
+        if let Some(v) = held(spec.name) {
+            for l in lay.slots.iter_mut() {
+                l[j] = Slot::Fixed(v);
+            }
+            lay.entries.push(Entry {
+                name: spec.name.to_string(),
+                slot: Slot::Fixed(v),
+            });
+        } else if !multi || shared(spec.name) {
+            add(&mut lay, j, spec.name.to_string(), 0..channels.len());
+        }
+    }
+    for (c, ch) in channels.iter().enumerate() {
+        for (j, spec) in specs.iter().enumerate() {
+            if multi && !shared(spec.name) && held(spec.name).is_none() {
+                add(&mut lay, j, format!("{}_{ch}", spec.name), c..c + 1);
+            }
+        }
+    }
+    lay
+}
+
+/// Step 2: refuse data that cannot determine the free parameters.
+fn check_data(
+    chans: &[ChannelRows],
+    lay: &Layout,
     opts: &FitOptions,
-    geometry_seconds: f64,
-) -> Result<FitResult, FitError> {
-    let t0 = Instant::now();
-    let kind = opts.kind;
-    let names = kind.param_names(opts.dist);
-    let model_specs = kind.params(opts.dist);
-    let multi = chans.len() > 1;
-    // Layout: fixed, shared or per channel.
-    let mut transforms = Vec::new();
-    let mut var_names: Vec<String> = Vec::new();
-    let mut var_specs: Vec<&ParamSpec> = Vec::new();
-    let mut layout = vec![[Slot::Fixed(0.0); 4]; chans.len()];
-    let mut entries: Vec<Entry> = Vec::new();
-    for (j, name) in names.iter().enumerate() {
-        if let Some((_, v)) = opts.fix.iter().rev().find(|(k, _)| k == name) {
-            for l in layout.iter_mut() {
-                l[j] = Slot::Fixed(*v);
-            }
-            entries.push(Entry {
-                name: name.to_string(),
-                slot: Slot::Fixed(*v),
-            });
-        } else if !multi || opts.shared.iter().any(|s| s == name) {
-            let k = transforms.len();
-            transforms.push(Transform::of(&model_specs[j]));
-            var_specs.push(&model_specs[j]);
-            var_names.push(name.to_string());
-            for l in layout.iter_mut() {
-                l[j] = Slot::Free(k);
-            }
-            entries.push(Entry {
-                name: name.to_string(),
-                slot: Slot::Free(k),
-            });
-        }
-    }
-    for (c, ch) in chans.iter().enumerate() {
-        for (j, name) in names.iter().enumerate() {
-            if multi
-                && !opts.shared.iter().any(|s| s == name)
-                && !opts.fix.iter().any(|(k, _)| k == name)
-            {
-                let k = transforms.len();
-                transforms.push(Transform::of(&model_specs[j]));
-                var_specs.push(&model_specs[j]);
-                let nm = format!("{name}_{}", ch.name);
-                var_names.push(nm.clone());
-                layout[c][j] = Slot::Free(k);
-                entries.push(Entry {
-                    name: nm,
-                    slot: Slot::Free(k),
-                });
-            }
-        }
-    }
-    let channel_label = chans
-        .iter()
-        .map(|c| c.name.clone())
-        .collect::<Vec<_>>()
-        .join(",");
-    // Data checks.
+    label: &str,
+) -> Result<(), FitError> {
     let m: usize = chans.iter().map(|c| c.rows.len()).sum();
-    let nfree = transforms.len();
+    let nfree = lay.transforms.len();
     if m <= nfree {
         return Err(fit_error(
-            format!("channel {channel_label}: {m} usable samples for {nfree} free parameters"),
+            format!("channel {label}: {m} usable samples for {nfree} free parameters"),
             "a fit needs more samples than free parameters: check --max-theta, the negative policy, or --fix some parameters",
         ));
     }
     if chans.iter().all(|c| c.all_zero) {
         return Err(fit_error(
-            format!("channel {channel_label}: every value is zero"),
+            format!("channel {label}: every value is zero"),
             "there is no reflectance to fit; check the channel and the file",
         ));
     }
-    let n_free = kind
+    let index_free = opts
+        .kind
         .index_of(opts.dist, Role::Index)
-        .is_some_and(|i| matches!(layout[0][i], Slot::Free(_)));
-    if n_free {
-        let t = chans[0].one_incidence;
-        if let Some(t) = t
-            && chans
-                .iter()
-                .all(|c| c.one_incidence.is_some_and(|x| (x - t).abs() < 1e-9))
-        {
-            return Err(fit_error(
-                format!(
-                    "channel {channel_label}: every sample has θi = {:.2}°; the Fresnel index n cannot be separated from ps at one incidence angle",
-                    t.to_degrees()
-                ),
-                "add samples at other incidence angles, or hold the index with --fix n=VALUE",
-            ));
-        }
+        .is_some_and(|i| matches!(lay.slots[0][i], Slot::Free(_)));
+    if index_free
+        && let Some(t) = chans[0].one_incidence
+        && chans
+            .iter()
+            .all(|c| c.one_incidence.is_some_and(|x| (x - t).abs() < 1e-9))
+    {
+        return Err(fit_error(
+            format!(
+                "channel {label}: every sample has θi = {:.2}°; the Fresnel index n cannot be separated from ps at one incidence angle",
+                t.to_degrees()
+            ),
+            "add samples at other incidence angles, or hold the index with --fix n=VALUE",
+        ));
     }
+    Ok(())
+}
+
+/// Step 3: the least-squares problem over every channel's rows.
+fn problem(chans: Vec<ChannelRows>, lay: &Layout, opts: &FitOptions) -> BrdfProblem {
     let mut starts = vec![0];
     let mut rows = Rows::default();
     for c in chans {
@@ -624,33 +630,48 @@ fn fit_group(
         starts.push(rows.len());
     }
     // The template's values are placeholders: each parameter's declared start.
-    let declared: Vec<f64> = model_specs.iter().map(|s| s.start).collect();
-    let mut template = Model::new(kind, opts.dist, &declared).expect("declared starts are valid");
+    let declared: Vec<f64> = opts
+        .kind
+        .params(opts.dist)
+        .iter()
+        .map(|s| s.start)
+        .collect();
+    let mut template =
+        Model::new(opts.kind, opts.dist, &declared).expect("declared starts are valid");
     template.fast_pow = opts.fast_pow;
-    let full = BrdfProblem {
+    BrdfProblem {
         template,
         rows: std::sync::Arc::new(rows),
         starts,
-        layout,
-        transforms,
+        layout: lay.slots.clone(),
+        transforms: lay.transforms.clone(),
         loss: opts.loss,
-    };
-    // Candidates are refined on a subsample of at most 2,000 rows per channel; the best one
-    // is then polished on every row (a few passes, since it starts next to the optimum).
-    let sub = if full.rows.len() > 2_000 * full.layout.len() {
-        Some(full.subsample(2_000))
-    } else {
-        None
-    };
-    let work = sub.as_ref().unwrap_or(&full);
+    }
+}
 
-    // Candidate starts.
+/// What the search found and what it cost.
+struct Search {
+    sol: Solution,
+    robust: Robust,
+    /// The ≤ 2,000-rows-per-channel subsample the candidates were refined on, if any.
+    sub: Option<BrdfProblem>,
+    refine_limits: Limits,
+    iterations: usize,
+    evaluations: usize,
+}
+
+/// Step 4: global initialisation, candidates refined on a subsample, the distinct basins near
+/// the best polished on every row (robust loss, if any, on that last stage).
+fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Search {
+    use rayon::prelude::*;
+    let sub = (full.rows.len() > 2_000 * full.layout.len()).then(|| full.subsample(2_000));
+    let work = sub.as_ref().unwrap_or(full);
     let mut candidates: Vec<Vec<f64>> = Vec::new();
     if !opts.local_only {
-        candidates.extend(global_init(&full, &var_specs, opts));
+        candidates.extend(global_init(full, &lay.specs, opts));
     }
     if !opts.start.is_empty() || candidates.is_empty() {
-        candidates.push(start_vector(&full, &var_specs, &var_names, &opts.start));
+        candidates.push(start_vector(full, &lay.specs, &lay.names, &opts.start));
     }
     // On a subsample only the basin matters: the polish on every row sets the final accuracy.
     let refine_limits = if sub.is_some() {
@@ -661,24 +682,17 @@ fn fit_group(
     } else {
         opts.limits
     };
-    let mut iterations = 0;
-    let mut evaluations = 0;
-    let mut sols: Vec<Solution> = {
-        use rayon::prelude::*;
-        candidates
-            .par_iter()
-            .map(|x0| lsq::solve(work, x0, opts.method, Robust::None, &refine_limits))
-            .collect()
-    };
-    for s in &sols {
-        iterations += s.iterations;
-        evaluations += s.evaluations;
-    }
+    let mut sols: Vec<Solution> = candidates
+        .par_iter()
+        .map(|x0| lsq::solve(work, x0, opts.method, Robust::None, &refine_limits))
+        .collect();
+    let mut iterations: usize = sols.iter().map(|s| s.iterations).sum();
+    let mut evaluations: usize = sols.iter().map(|s| s.evaluations).sum();
     sols.sort_by(|a, b| a.cost.total_cmp(&b.cost));
     let robust = match opts.robust {
         None => Robust::None,
         Some(kind) => {
-            let delta = robust_scale(&full, &sols[0].x);
+            let delta = robust_scale(full, &sols[0].x);
             match kind {
                 RobustKind::Huber => Robust::Huber(delta),
                 RobustKind::Cauchy => Robust::Cauchy(delta),
@@ -688,19 +702,12 @@ fn fit_group(
     let sol = if sub.is_some() || robust != Robust::None {
         // A subsample's cost tells basins apart only to within its sampling noise: every
         // distinct basin whose subsample cost is near the best is polished on every row.
-        let contenders = distinct_basins(&sols);
-
-        let polished: Vec<Solution> = {
-            use rayon::prelude::*;
-            contenders
-                .par_iter()
-                .map(|s| lsq::solve(&full, &s.x, opts.method, robust, &opts.limits))
-                .collect()
-        };
-        for s in &polished {
-            iterations += s.iterations;
-            evaluations += s.evaluations;
-        }
+        let polished: Vec<Solution> = distinct_basins(&sols)
+            .par_iter()
+            .map(|s| lsq::solve(full, &s.x, opts.method, robust, &opts.limits))
+            .collect();
+        iterations += polished.iter().map(|s| s.iterations).sum::<usize>();
+        evaluations += polished.iter().map(|s| s.evaluations).sum::<usize>();
         polished
             .into_iter()
             .min_by(|a, b| a.cost.total_cmp(&b.cost))
@@ -708,58 +715,57 @@ fn fit_group(
     } else {
         sols.swap_remove(0)
     };
-    if !sol.cost.is_finite() {
-        return Err(fit_error(
-            format!("channel {channel_label}: the fit found no point with a finite cost"),
-            "check the data for extreme values, or give a --start",
-        ));
+    Search {
+        sol,
+        robust,
+        sub,
+        refine_limits,
+        iterations,
+        evaluations,
     }
-    // Statistics in natural parameters.
-    let cost = if robust == Robust::None {
-        sol.cost
-    } else {
-        lsq::cost(&full, &sol.x, Robust::None).unwrap_or(f64::INFINITY)
-    };
-    let theta: Vec<f64> = (0..nfree)
-        .map(|k| full.transforms[k].apply(sol.x[k]).0)
-        .collect();
-    let mut warnings = Vec::new();
-    if !sol.converged {
-        warnings.push(format!(
-            "the solver stopped before converging: {}",
-            sol.termination
-        ));
-    }
+}
+
+/// What the checks at return found.
+struct Checks {
+    kkt_violation: f64,
+    verification: Option<Verification>,
+    unusable: Vec<String>,
+}
+
+/// Step 5: the first-order conditions, absurd values and (with `verify`) the random starts.
+fn certify(
+    full: &BrdfProblem,
+    found: &mut Search,
+    lay: &Layout,
+    theta: &[f64],
+    opts: &FitOptions,
+) -> Checks {
     let mut unusable = Vec::new();
-    let kkt_violation = match first_order(&full, &sol, robust, &var_names) {
-        (v, Some(why)) => {
-            unusable.push(why);
-            v
-        }
-        (v, None) => v,
-    };
-    for k in 0..nfree {
-        if theta[k] >= var_specs[k].absurd_above {
+    let (kkt_violation, why) = first_order(full, &found.sol, found.robust, &lay.names);
+    unusable.extend(why);
+    for k in 0..theta.len() {
+        if theta[k] >= lay.specs[k].absurd_above {
             unusable.push(format!(
                 "{} = {} is not a physical value (≥ {})",
-                var_names[k],
+                lay.names[k],
                 readable(theta[k]),
-                readable(var_specs[k].absurd_above)
+                readable(lay.specs[k].absurd_above)
             ));
         }
     }
     let verification = (opts.verify > 0).then(|| {
-        let v = verify(
-            &full,
+        let work = found.sub.as_ref().unwrap_or(full);
+        let (v, evaluations) = verify(
+            full,
             work,
-            &var_specs,
+            &lay.specs,
             opts,
-            robust,
-            &refine_limits,
-            sol.cost,
+            found.robust,
+            &found.refine_limits,
+            found.sol.cost,
         );
-        evaluations += v.1;
-        v.0
+        found.evaluations += evaluations;
+        v
     });
     if let Some(v) = &verification
         && !v.verified
@@ -767,15 +773,43 @@ fn fit_group(
         unusable.push(format!(
             "verification: a random start reached cost {}, below this fit's {}",
             readable(v.best_cost),
-            readable(sol.cost)
+            readable(found.sol.cost)
         ));
     }
-    let (se, corr, singular) = statistics(&full, &sol, &theta, cost, m);
+    Checks {
+        kkt_violation,
+        verification,
+        unusable,
+    }
+}
+
+/// What the data say about each free parameter.
+struct Uncertainty {
+    se: Vec<f64>,
+    corr: Vec<Vec<f64>>,
+    ranges: Vec<(String, f64, f64)>,
+    at_bound: Vec<(String, String)>,
+}
+
+/// Step 6: standard errors and correlations, 1 % ranges (quadratic or profiled), parameters on
+/// a bound, and the honest warnings (appended to `warnings`).
+fn uncertainty(
+    full: &BrdfProblem,
+    sol: &Solution,
+    theta: &[f64],
+    cost: f64,
+    lay: &Layout,
+    opts: &FitOptions,
+    warnings: &mut Vec<String>,
+) -> Uncertainty {
+    let m = full.rows.len();
+    let nfree = theta.len();
+    let (se, corr, singular) = statistics(full, sol, theta, cost, m);
     let prof = full.subsample(1000);
     let mut ranges = Vec::new();
     let mut at_bound = Vec::new();
     for k in 0..nfree {
-        let name = &var_names[k];
+        let name = &lay.names[k];
         // The quadratic model of the cost gives the 1 % range in solver space,
         // Δu = (σ_θ/|dθ/du|)·√(0.01 (m − p)); where it is narrow (a factor ≤ 1.2, inside the
         // bounds) it stands, otherwise the cost is profiled for real.
@@ -796,13 +830,13 @@ fn fit_group(
         } else {
             profile_range(&prof, &sol.x, k, opts)
         };
-        let side = lsq::bound_side(sol.x[k], full.transforms[k].bounds());
+        let side = lsq::bound_side(sol.x[k], t.bounds());
         if side != 0 {
             let which = if side < 0 { "lower" } else { "upper" };
             at_bound.push((name.clone(), which.to_string()));
         }
         // A shape parameter at the end of its box has run off (a linear one at 0 is an answer).
-        let ran_off = side != 0 && matches!(full.transforms[k].scale, Scale::Log { .. });
+        let ran_off = side != 0 && matches!(t.scale, Scale::Log { .. });
         let rel = se[k] / theta[k].abs().max(1e-300);
         // Weak: the 1 % range spans more than a factor 1.25, or reaches a bound.
         let wide = range.is_some_and(|(a, b)| !(b / a <= 1.25) || a == f64::NEG_INFINITY);
@@ -839,53 +873,98 @@ fn fit_group(
             });
         }
     }
-    // Report every model parameter, fixed ones included.
-    let mut params = Vec::new();
-    let mut stderr = Vec::new();
-    let mut free = Vec::new();
-    let mut order = Vec::new();
-    for e in &entries {
-        match e.slot {
-            Slot::Free(k) => {
-                params.push((e.name.clone(), theta[k]));
-                stderr.push(se[k]);
-                free.push(true);
-                order.push(Some(k));
-            }
-            Slot::Fixed(v) => {
-                params.push((e.name.clone(), v));
-                stderr.push(0.0);
-                free.push(false);
-                order.push(None);
-            }
-        }
+    Uncertainty {
+        se,
+        corr,
+        ranges,
+        at_bound,
     }
-    let correlation: Vec<Vec<f64>> = order
+}
+
+/// Every model parameter as reported, fixed ones included: (params, stderr, free,
+/// correlation), in model order.
+type Reported = (Vec<(String, f64)>, Vec<f64>, Vec<bool>, Vec<Vec<f64>>);
+
+/// Step 7: the reported parameters from the solver variables.
+fn reported(lay: &Layout, theta: &[f64], u: &Uncertainty) -> Reported {
+    let order: Vec<Option<usize>> = lay
+        .entries
         .iter()
-        .enumerate()
-        .map(|(a, oa)| {
-            order
-                .iter()
-                .enumerate()
-                .map(|(b, ob)| match (oa, ob) {
-                    (Some(i), Some(j)) => corr[*i][*j],
-                    _ => {
-                        if a == b {
-                            1.0
-                        } else {
-                            0.0
-                        }
-                    }
+        .map(|e| match e.slot {
+            Slot::Free(k) => Some(k),
+            Slot::Fixed(_) => None,
+        })
+        .collect();
+    let params = lay
+        .entries
+        .iter()
+        .map(|e| match e.slot {
+            Slot::Free(k) => (e.name.clone(), theta[k]),
+            Slot::Fixed(v) => (e.name.clone(), v),
+        })
+        .collect();
+    let stderr = order.iter().map(|o| o.map_or(0.0, |k| u.se[k])).collect();
+    let free = order.iter().map(Option::is_some).collect();
+    let correlation = (0..order.len())
+        .map(|a| {
+            (0..order.len())
+                .map(|b| match (order[a], order[b]) {
+                    (Some(i), Some(j)) => u.corr[i][j],
+                    _ if a == b => 1.0,
+                    _ => 0.0,
                 })
                 .collect()
         })
         .collect();
+    (params, stderr, free, correlation)
+}
+
+/// One fit of one channel, or a joint fit of several, in the steps above.
+fn fit_group(
+    chans: Vec<ChannelRows>,
+    opts: &FitOptions,
+    geometry_seconds: f64,
+) -> Result<FitResult, FitError> {
+    let t0 = Instant::now();
+    let channel_names: Vec<String> = chans.iter().map(|c| c.name.clone()).collect();
+    let channel_label = channel_names.join(",");
+    let lay = layout(&channel_names, opts);
+    check_data(&chans, &lay, opts, &channel_label)?;
+    let m: usize = chans.iter().map(|c| c.rows.len()).sum();
+    let nfree = lay.transforms.len();
+    let full = problem(chans, &lay, opts);
+    let mut found = search(&full, &lay, opts);
+    if !found.sol.cost.is_finite() {
+        return Err(fit_error(
+            format!("channel {channel_label}: the fit found no point with a finite cost"),
+            "check the data for extreme values, or give a --start",
+        ));
+    }
+    // Statistics in natural parameters, on the declared (not the robust) loss.
+    let cost = if found.robust == Robust::None {
+        found.sol.cost
+    } else {
+        lsq::cost(&full, &found.sol.x, Robust::None).unwrap_or(f64::INFINITY)
+    };
+    let theta: Vec<f64> = (0..nfree)
+        .map(|k| full.transforms[k].apply(found.sol.x[k]).0)
+        .collect();
+    let mut warnings = Vec::new();
+    if !found.sol.converged {
+        warnings.push(format!(
+            "the solver stopped before converging: {}",
+            found.sol.termination
+        ));
+    }
+    let checks = certify(&full, &mut found, &lay, &theta, opts);
+    let u = uncertainty(&full, &found.sol, &theta, cost, &lay, opts, &mut warnings);
+    let (params, stderr, free, correlation) = reported(&lay, &theta, &u);
     let rss = 2.0 * cost;
     let mf = m as f64;
     let kf = nfree as f64;
     let loglike_term = mf * (rss / mf).max(1e-300).ln();
     Ok(FitResult {
-        model: kind,
+        model: opts.kind,
         dist: opts.dist,
         loss: opts.loss,
         method: opts.method,
@@ -897,20 +976,20 @@ fn fit_group(
         cost,
         rmse: (rss / mf).sqrt(),
         samples_used: m,
-        iterations,
-        evaluations,
-        termination: sol.termination,
+        iterations: found.iterations,
+        evaluations: found.evaluations,
+        termination: found.sol.termination,
         seconds: geometry_seconds + t0.elapsed().as_secs_f64(),
         geometry_seconds,
         warnings,
         bic: loglike_term + kf * mf.ln(),
         aic: loglike_term + 2.0 * kf,
         n_free: nfree,
-        ranges,
-        at_bound,
-        kkt_violation,
-        verification,
-        unusable,
+        ranges: u.ranges,
+        at_bound: u.at_bound,
+        kkt_violation: checks.kkt_violation,
+        verification: checks.verification,
+        unusable: checks.unusable,
     })
 }
 
