@@ -1,0 +1,183 @@
+//! Arguments shared by several commands: loading, models, fitting.
+
+use anyhow::{Result, anyhow};
+use brdfit::data::{self, ChannelSelect, Dataset, Format, LoadOptions, NegativePolicy};
+use brdfit::model::{Distribution, Model, ModelKind};
+use clap::Args;
+use std::path::{Path, PathBuf};
+
+#[derive(Args, Debug, Clone)]
+pub(crate) struct OptModelArgs {
+    /// A model (instead of or besides a fit).
+    #[arg(long, value_enum)]
+    pub(crate) model: Option<ModelKind>,
+    /// Facet distribution of models that take one (torrance-sparrow).
+    #[arg(long, value_enum, default_value = "d3")]
+    pub(crate) distribution: Distribution,
+    /// Parameters NAME=VALUE.
+    #[arg(long = "set", value_delimiter = ',')]
+    pub(crate) set: Vec<String>,
+}
+
+impl OptModelArgs {
+    pub(crate) fn build(&self) -> Result<Option<Model>> {
+        match &self.model {
+            None => Ok(None),
+            Some(m) => ModelArgs {
+                model: *m,
+                distribution: self.distribution,
+                set: self.set.clone(),
+                fast_pow: None,
+            }
+            .build()
+            .map(Some),
+        }
+    }
+}
+
+#[derive(Args, Debug, Clone)]
+pub(crate) struct FitArgs {
+    /// The data file(s); several files are fitted in parallel (see --jobs, --summary).
+    #[arg(required = true)]
+    pub(crate) files: Vec<PathBuf>,
+    /// Files fitted at once in a batch.
+    #[arg(long, short = 'j', default_value_t = 2)]
+    pub(crate) jobs: usize,
+    /// Batch summary: one row per file, channel and model (CSV, or JSON when FILE ends in .json).
+    #[arg(long, value_name = "FILE")]
+    pub(crate) summary: Option<PathBuf>,
+    /// Model, or all (every model, ranked by BIC).
+    #[arg(long, default_value = "torrance-sparrow", value_parser = model_or_all())]
+    pub(crate) model: String,
+    /// Facet distribution of models that take one (torrance-sparrow): d1 (cosine power), d2
+    /// (Gaussian), d3 (Trowbridge–Reitz).
+    #[arg(long, value_enum, default_value = "d3")]
+    pub(crate) distribution: Distribution,
+    /// Local method: lm (Levenberg–Marquardt), gn (Gauss–Newton with line search), nm (Nelder–Mead).
+    #[arg(long, value_enum, default_value = "lm")]
+    pub(crate) method: brdfit::fit::lsq::Method,
+    /// Loss: log (ln(1 + cosθi f) differences) or linear (f differences).
+    #[arg(long, value_enum, default_value = "log")]
+    pub(crate) loss: brdfit::fit::problem::Loss,
+    /// Robust loss on top of it.
+    #[arg(long, value_enum)]
+    pub(crate) robust: Option<brdfit::fit::RobustKind>,
+    /// Drop samples with θi or θo beyond this angle (degrees).
+    #[arg(long, value_name = "DEG")]
+    pub(crate) max_theta: Option<f64>,
+    /// Hold parameters fixed, NAME=VALUE (repeat or separate with commas).
+    #[arg(long, value_delimiter = ',')]
+    pub(crate) fix: Vec<String>,
+    /// Start point NAME=VALUE (one more candidate after the global initialisation).
+    #[arg(long, value_delimiter = ',')]
+    pub(crate) start: Vec<String>,
+    /// Fit these parameters jointly across channels (the others per channel), e.g. n,c3.
+    #[arg(long, value_delimiter = ',')]
+    pub(crate) shared: Vec<String>,
+    /// Skip the global initialisation (local method from --start or the default start only).
+    #[arg(long)]
+    pub(crate) local_only: bool,
+    /// Certificate: after the fit, refine K seeded random starts and report whether any ended
+    /// lower (JSON `verified`, `verify_best_cost`); a fit one of them beats is marked not usable.
+    #[arg(long, value_name = "K", default_value_t = 0)]
+    pub(crate) verify: usize,
+    /// Seed of the --verify starts.
+    #[arg(long, value_name = "S", default_value_t = 1)]
+    pub(crate) verify_seed: u64,
+    /// Phong only: fast power approximation with γ = 2^K.
+    #[arg(long, value_name = "K")]
+    pub(crate) fast_pow: Option<u32>,
+    /// Benchmarking: run each fit N times in this process and report the median time in
+    /// `seconds` and `geometry_seconds` (the results are identical every time; the peer scripts
+    /// time the same way).
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub(crate) repeat: u32,
+    /// Write the fit(s) as JSON to this file.
+    #[arg(long, value_name = "FILE")]
+    pub(crate) json: Option<PathBuf>,
+}
+
+#[derive(Args, Debug, Clone)]
+pub(crate) struct LoadArgs {
+    /// Input format (csv, astm, cornell, merl) instead of detecting it from extension and content.
+    #[arg(long, value_enum)]
+    pub(crate) format: Option<Format>,
+    /// What to do with negative values: mask (treat as missing), clamp (to 0) or error.
+    #[arg(long, value_enum, default_value = "mask")]
+    pub(crate) negative: NegativePolicy,
+    /// Reduce to one channel: a name (r, g, b, 550nm), an index, a wavelength (555nm,
+    /// interpolated) or cie-y (CIE 1931 luminance of spectral data).
+    #[arg(long)]
+    pub(crate) channel: Option<String>,
+}
+
+#[derive(Args, Debug, Clone)]
+pub(crate) struct ModelArgs {
+    /// Model.
+    #[arg(long, value_enum)]
+    pub(crate) model: ModelKind,
+    /// Facet distribution of models that take one (torrance-sparrow): d1 (cosine power), d2
+    /// (Gaussian), d3 (Trowbridge–Reitz).
+    #[arg(long, value_enum, default_value = "d3")]
+    pub(crate) distribution: Distribution,
+    /// Parameter values NAME=VALUE (repeat or separate with commas), e.g. n=1.8,c3=0.35,ps=0.667,pd=0.333.
+    #[arg(long = "set", value_delimiter = ',')]
+    pub(crate) set: Vec<String>,
+    /// Phong only: use the fast power approximation (1 − βλ)^γ with γ = 2^K.
+    #[arg(long, value_name = "K")]
+    pub(crate) fast_pow: Option<u32>,
+}
+
+impl ModelArgs {
+    pub(crate) fn build(&self) -> Result<Model> {
+        let (kind, dist) = (self.model, self.distribution);
+        let set = parse_assignments("--set", &self.set)?;
+        let mut m = Model::from_named(kind, dist, &set).map_err(|e| anyhow!("{e}"))?;
+        m.fast_pow = self.fast_pow;
+        Ok(m)
+    }
+}
+
+/// Parse `NAME=VALUE` items of a flag.
+pub(crate) fn parse_assignments(flag: &str, items: &[String]) -> Result<Vec<(String, f64)>> {
+    items
+        .iter()
+        .map(|kv| {
+            let (k, v) = kv.split_once('=').ok_or_else(|| {
+                anyhow!("{flag} '{kv}' is not NAME=VALUE\n  fix: write e.g. {flag} c3=0.35")
+            })?;
+            let v: f64 = v.trim().parse().map_err(|_| {
+                anyhow!("{flag} {kv}: '{v}' is not a number\n  fix: write e.g. {flag} c3=0.35")
+            })?;
+            Ok((k.trim().to_string(), v))
+        })
+        .collect()
+}
+
+impl LoadArgs {
+    pub(crate) fn load(&self, path: &Path) -> Result<Dataset> {
+        let (format, negative) = (self.format, self.negative);
+        let ds = data::load(path, &LoadOptions { format, negative })?;
+        match &self.channel {
+            None => Ok(ds),
+            Some(c) => ds.select(&ChannelSelect::parse(c)).map_err(|m| {
+                anyhow!(
+                    "{}: {m}\n  fix: pick a channel the file has",
+                    path.display()
+                )
+            }),
+        }
+    }
+}
+
+/// `--model` of `fit`: a model's name (or alias) or `all`; clap rejects anything else with a
+/// suggestion and exit code 2.
+pub(crate) fn model_or_all() -> clap::builder::PossibleValuesParser {
+    use clap::ValueEnum;
+    clap::builder::PossibleValuesParser::new(
+        ModelKind::value_variants()
+            .iter()
+            .filter_map(|k| k.to_possible_value())
+            .chain([clap::builder::PossibleValue::new("all")]),
+    )
+}

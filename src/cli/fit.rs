@@ -1,0 +1,243 @@
+//! `brdfit fit`: parse, call the library, print the table and write the JSON and summary.
+
+use super::*;
+use anyhow::{Context, Result, anyhow, bail};
+use brdfit::model::{Distribution, ModelKind};
+use std::path::Path;
+
+/// Read a fit JSON (one fit, or the first of `fits`) into its model(s) with labels.
+pub(crate) fn read_fits(path: &Path) -> Result<Vec<brdfit::fit::FitResult>> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read the fit JSON", path.display()))?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+        anyhow!(
+            "{}: not valid JSON ({e})\n  fix: give a file written by brdfit fit --json",
+            path.display()
+        )
+    })?;
+    let list: Vec<serde_json::Value> = match v.get("fits").and_then(|f| f.as_array()) {
+        Some(a) => a.clone(),
+        None => vec![v],
+    };
+    list.iter()
+        .map(|f| {
+            brdfit::fit::FitResult::from_json(f).map_err(|e| {
+                anyhow!(
+                    "{}: {e}\n  fix: give a file written by brdfit fit --json",
+                    path.display()
+                )
+            })
+        })
+        .collect()
+}
+
+pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
+    use rayon::prelude::*;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.jobs.clamp(1, 64))
+        .build()
+        .map_err(|e| anyhow!("cannot start {} jobs: {e}", a.jobs))?;
+    let results: Vec<Result<(String, Vec<brdfit::fit::FitResult>)>> = if a.files.len() == 1 {
+        vec![fit_one(a, load, &a.files[0])]
+    } else {
+        let bar = progress_bar(a.files.len() as u64, "files");
+        let r = pool.install(|| {
+            a.files
+                .par_iter()
+                .map(|f| {
+                    let r = fit_one(a, load, f);
+                    bar.inc(1);
+                    r
+                })
+                .collect()
+        });
+        bar.finish_and_clear();
+        r
+    };
+    let mut all = Vec::new();
+    let mut first_err = None;
+    for (f, r) in a.files.iter().zip(results) {
+        match r {
+            Ok((text, fits)) => {
+                if a.files.len() > 1 {
+                    print(&format!("== {}\n", f.display()))?;
+                }
+                print(&text)?;
+                all.push((f.clone(), fits));
+            }
+            Err(e) => {
+                eprintln!("error: {e:#}");
+                first_err.get_or_insert(e);
+            }
+        }
+    }
+    if let Some(path) = &a.json {
+        guard(path)?;
+        if a.files.iter().any(|f| same_file(f, path)) {
+            bail!(
+                "{}: the output would overwrite an input\n  fix: choose another output path",
+                path.display()
+            );
+        }
+        let flat: Vec<&brdfit::fit::FitResult> = all.iter().flat_map(|(_, f)| f).collect();
+        let v = if flat.len() == 1 {
+            flat[0].to_json()
+        } else {
+            serde_json::json!({ "fits": flat.iter().map(|f| f.to_json()).collect::<Vec<_>>() })
+        };
+        let s = serde_json::to_string_pretty(&v)? + "\n";
+        brdfit::output::write_bytes_atomic(path, s.as_bytes())
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(path) = &a.summary {
+        guard(path)?;
+        if a.files.iter().any(|f| same_file(f, path)) {
+            bail!(
+                "{}: the output would overwrite an input\n  fix: choose another output path",
+                path.display()
+            );
+        }
+        let text = if path.extension().is_some_and(|e| e == "json") {
+            let rows: Vec<serde_json::Value> = all
+                .iter()
+                .flat_map(|(f, fits)| {
+                    fits.iter().map(move |r| {
+                        let mut v = r.to_json();
+                        v["file"] = serde_json::json!(f.display().to_string());
+                        v
+                    })
+                })
+                .collect();
+            serde_json::to_string_pretty(&rows)? + "\n"
+        } else {
+            let mut w = csv::Writer::from_writer(Vec::new());
+            w.write_record([
+                "file",
+                "channel",
+                "model",
+                "params",
+                "cost",
+                "rmse",
+                "samples_used",
+                "warnings",
+                "unusable",
+            ])?;
+            for (f, fits) in &all {
+                for r in fits {
+                    let params: Vec<String> =
+                        r.params.iter().map(|(n, v)| format!("{n}={v}")).collect();
+                    w.write_record([
+                        f.display().to_string(),
+                        r.channel.clone(),
+                        r.label(),
+                        params.join(" "),
+                        r.cost.to_string(),
+                        r.rmse.to_string(),
+                        r.samples_used.to_string(),
+                        r.warnings.len().to_string(),
+                        r.unusable.join("; "),
+                    ])?;
+                }
+            }
+            String::from_utf8(w.into_inner().map_err(|e| anyhow!("{e}"))?)?
+        };
+        brdfit::output::write_bytes_atomic(path, text.as_bytes())
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    match first_err {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+/// Fit one file as the flags say: the terminal text and the fits.
+pub(crate) fn fit_one(
+    a: &FitArgs,
+    load: &LoadArgs,
+    file: &Path,
+) -> Result<(String, Vec<brdfit::fit::FitResult>)> {
+    use brdfit::fit::{self, FitOptions};
+    let t = std::time::Instant::now();
+    let ds = load.load(file)?;
+    if VERBOSE.load(std::sync::atomic::Ordering::Relaxed) {
+        eprintln!(
+            "{}: {} samples, {} channel(s) read in {:.3} s",
+            file.display(),
+            ds.len(),
+            ds.channels.len(),
+            t.elapsed().as_secs_f64()
+        );
+    }
+    let dist = a.distribution;
+    // clap has checked the name: `all` or a model.
+    let kinds: Vec<(ModelKind, Distribution)> = match ModelKind::parse(&a.model) {
+        Some(kind) => vec![(kind, dist)],
+        None => fit::all_models(),
+    };
+    let (method, loss, robust) = (a.method, a.loss, a.robust);
+    let fix = parse_assignments("--fix", &a.fix)?;
+    let start = parse_assignments("--start", &a.start)?;
+    let mut all = Vec::new();
+    for (kind, dist) in &kinds {
+        let mut o = FitOptions::new(*kind);
+        o.dist = *dist;
+        o.method = method;
+        o.loss = loss;
+        o.robust = robust;
+        o.max_theta_deg = a.max_theta;
+        // With --model all, parameters a model lacks are skipped for that model.
+        let names = kind.param_names(*dist);
+        let keep = |v: &Vec<(String, f64)>| -> Vec<(String, f64)> {
+            v.iter()
+                .filter(|(k, _)| kinds.len() == 1 || names.contains(&k.as_str()))
+                .cloned()
+                .collect()
+        };
+        o.fix = keep(&fix);
+        o.start = keep(&start);
+        o.shared = a
+            .shared
+            .iter()
+            .filter(|s| kinds.len() == 1 || names.contains(&s.as_str()))
+            .cloned()
+            .collect();
+        o.local_only = a.local_only;
+        o.fast_pow = a.fast_pow;
+        o.verify = a.verify;
+        o.seed = a.verify_seed;
+        let mut fits = fit::fit(&ds, &o).map_err(|e| anyhow!("{}: {e}", file.display()))?;
+        if a.repeat > 1 {
+            let both = |f: &fit::FitResult| [f.seconds, f.geometry_seconds];
+            let mut times: Vec<Vec<[f64; 2]>> = fits.iter().map(|f| vec![both(f)]).collect();
+            for _ in 1..a.repeat {
+                let again = fit::fit(&ds, &o).map_err(|e| anyhow!("{}: {e}", file.display()))?;
+                for (t, f) in times.iter_mut().zip(&again) {
+                    t.push(both(f));
+                }
+            }
+            // Each time is the median of its own column.
+            let median = |t: &[[f64; 2]], k: usize| {
+                let mut v: Vec<f64> = t.iter().map(|x| x[k]).collect();
+                v.sort_by(f64::total_cmp);
+                v[v.len() / 2]
+            };
+            for (f, t) in fits.iter_mut().zip(&times) {
+                (f.seconds, f.geometry_seconds) = (median(t, 0), median(t, 1));
+            }
+        }
+        all.push(fits);
+    }
+    let mut text = String::new();
+    let nch = all[0].len();
+    for c in 0..nch {
+        for fits in &all {
+            text.push_str(&fit::format_fit(&fits[c]));
+        }
+        if all.len() > 1 {
+            let row: Vec<fit::FitResult> = all.iter().map(|f| f[c].clone()).collect();
+            text.push_str(&format!("model comparison, channel {}:\n", row[0].channel));
+            text.push_str(&fit::format_ranking(&row));
+        }
+    }
+    Ok((text, all.into_iter().flatten().collect()))
+}

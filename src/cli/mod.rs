@@ -1,0 +1,686 @@
+//! The command-line interface: argument parsing (clap) and printing; the work is done by the
+//! library. One file per command group.
+
+mod args;
+mod fit;
+mod plot;
+mod render;
+mod study;
+
+pub(crate) use args::*;
+pub(crate) use fit::*;
+pub(crate) use plot::*;
+pub(crate) use render::*;
+pub(crate) use study::*;
+
+use anyhow::{Context, Result, anyhow, bail};
+use brdfit::data::{self, Dataset, Format, Quantity};
+use brdfit::model::Geometry;
+use brdfit::simulate::{Grid, simulate};
+use clap::{Parser, Subcommand};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Fit reflection models (Phong, Blinn's Torrance–Sparrow) to measured reflectance.
+#[derive(Parser, Debug)]
+#[command(name = "brdfit", version, about, long_about = None)]
+pub(crate) struct Cli {
+    #[command(subcommand)]
+    pub(crate) command: Command,
+    /// Replace existing output files (directories such as reports/ are always regenerated).
+    #[arg(long, global = true)]
+    pub(crate) force: bool,
+    /// No progress bars or notes on stderr.
+    #[arg(long, short, global = true)]
+    pub(crate) quiet: bool,
+    /// More detail on stderr (timings).
+    #[arg(long, short, global = true)]
+    pub(crate) verbose: bool,
+}
+
+pub(crate) static FORCE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+pub(crate) static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+pub(crate) static VERBOSE: std::sync::atomic::AtomicBool =
+    std::sync::atomic::AtomicBool::new(false);
+
+/// Refuse to replace an existing output file unless --force was given.
+pub(crate) fn guard(path: &Path) -> Result<()> {
+    if path.exists() && !FORCE.load(std::sync::atomic::Ordering::Relaxed) {
+        if path.is_dir() {
+            bail!(
+                "{}: is a directory\n  fix: give a file name",
+                path.display()
+            );
+        }
+        bail!(
+            "{}: the output exists\n  fix: choose another name, or add --force to replace it",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
+/// A progress bar on stderr, drawn only on a terminal and never with --quiet.
+pub(crate) fn progress_bar(len: u64, what: &str) -> indicatif::ProgressBar {
+    use std::io::IsTerminal;
+    if quiet() || !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(len);
+    bar.set_message(what.to_string());
+    bar
+}
+
+pub(crate) fn quiet() -> bool {
+    QUIET.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+#[derive(Subcommand, Debug)]
+pub(crate) enum Command {
+    /// One command from measurements to a report: fits, model comparison, plots, renders and
+    /// studies for each file (the bundled data/ when no file is given), as index.html, report.md
+    /// and results.json.
+    #[command(
+        after_help = "Examples:\n  brdfit report\n  brdfit report my-sample.csv -o my-report"
+    )]
+    Report {
+        /// Data files (default: every data file in data/).
+        files: Vec<PathBuf>,
+        /// Output directory (regenerated).
+        #[arg(short, long, default_value = "reports")]
+        output: PathBuf,
+        /// Random starts per configuration in each stability study.
+        #[arg(long, default_value_t = 3)]
+        stability_starts: usize,
+        /// Resolution of the material renders.
+        #[arg(long, default_value_t = 256)]
+        render_res: u32,
+    },
+    /// Summarise a data file: format, samples, channels, quantity, angle coverage, value range.
+    #[command(after_help = "Example:\n  brdfit info data/cayman.astm")]
+    Info {
+        /// The data file (.csv, .astm, .brdf or MERL .binary).
+        file: PathBuf,
+        #[command(flatten)]
+        load: LoadArgs,
+    },
+    /// Evaluate a model's BRDF at the directions of a CSV (its four angle columns).
+    #[command(
+        after_help = "Example:\n  brdfit eval --model torrance-sparrow --set n=1.8,c3=0.35,ps=0.667,pd=0.333 dirs.csv -o out.csv"
+    )]
+    Eval {
+        #[command(flatten)]
+        model: ModelArgs,
+        /// CSV whose theta_i/phi_i/theta_o/phi_o columns (with _deg or _rad) give the directions.
+        directions: PathBuf,
+        /// Output CSV (standard output when omitted).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
+    /// Write synthetic samples of a model, with seeded multiplicative Gaussian noise.
+    #[command(
+        after_help = "Example:\n  brdfit simulate --model torrance-sparrow --set n=1.8,c3=0.35,ps=0.667,pd=0.333 \\\n    --grid hemisphere:10000 --noise 0.01 --seed 1 -o mgo.csv"
+    )]
+    Simulate {
+        #[command(flatten)]
+        model: ModelArgs,
+        /// Sampling: hemisphere:N (N seeded random directions) or plane:θ1,θ2,… (degrees).
+        #[arg(long, default_value = "hemisphere:10000")]
+        grid: String,
+        /// Relative noise σ: each value is multiplied by (1 + σ ε), ε ~ N(0, 1).
+        #[arg(long, default_value_t = 0.0)]
+        noise: f64,
+        /// Seed of the random stream (directions and noise).
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output CSV.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Fit a model (or all of them, ranked by BIC) to a data file by nonlinear least squares.
+    #[command(
+        after_help = "Examples:\n  brdfit fit data/blinn-mgo.csv\n  brdfit fit data/merl-aluminium.csv --model all --json fits.json\n  brdfit fit data/cayman.astm --channel cie-y --model phong --max-theta 80"
+    )]
+    Fit {
+        #[command(flatten)]
+        fit: FitArgs,
+        #[command(flatten)]
+        load: LoadArgs,
+    },
+    /// Plots: polar lobes (Blinn's Figures 5–6), residuals, θh×θd slices, albedo.
+    #[command(subcommand)]
+    Plot(PlotCommand),
+    /// Studies: speed against accuracy of every method × model, and stability from random starts.
+    #[command(subcommand)]
+    Study(StudyCommand),
+    /// Render a scene (TOML) with Whitted's ray tracer, or Blinn's Figure 7 with `fig7`.
+    #[command(
+        after_help = "Examples:\n  brdfit render data/scenes/mitsuba-front.toml -o out.png\n  brdfit render fig7 --aluminium al.json --mgo mgo.json -o reports/fig7"
+    )]
+    Render {
+        /// The scene file, or `fig7` for Blinn's Figure 7 matrix.
+        scene: String,
+        /// Output: an image path for a scene (PNG; the EXR is written beside it), a directory for fig7.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// fig7: fit JSON for the aluminium object (default: Blinn's ps .4 pd .6 n 200 c3 .5).
+        #[arg(long)]
+        aluminium: Option<PathBuf>,
+        /// fig7: fit JSON for the magnesium-oxide object (default: Blinn's ps .667 pd .333 n 1.8 c3 .35).
+        #[arg(long)]
+        mgo: Option<PathBuf>,
+        /// fig7: image resolution (square).
+        #[arg(long, default_value_t = 512)]
+        res: u32,
+    },
+    /// Export a fit to another renderer or format: mitsuba, pbrt, brdf-explorer, merl, csv.
+    #[command(
+        after_help = "Examples:\n  brdfit export fit.json --to mitsuba\n  brdfit export fit.json --to merl -o fitted.binary"
+    )]
+    Export {
+        /// The fit JSON (from brdfit fit --json or brdfit report).
+        fit: PathBuf,
+        /// Target: mitsuba (BSDF XML), pbrt (pbrt-v4 material), brdf-explorer (.brdf analytic),
+        /// merl (.binary table), csv (the model on a 5°/15° grid).
+        #[arg(long, value_enum)]
+        to: brdfit::export::ExportFormat,
+        /// Output file (text formats go to standard output when omitted).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
+    #[command(after_help = "Example:\n  brdfit completions bash > /etc/bash_completion.d/brdfit")]
+    Completions {
+        /// The shell.
+        shell: clap_complete::Shell,
+    },
+    /// Inverse Phong: normals and a height profile along a line of an image, from known light,
+    /// ambient and diffuse constants (the cylinder case: the normal lies in the plane of the line
+    /// and the view). The general case (three unknown normal components) is under-determined from
+    /// one image; a second image under another light (--image2, --light2) removes the ambiguity.
+    #[command(
+        after_help = "Example:\n  brdfit inverse cyl.exr --row 128 --light 0.5,0.2,1 --ca 0.1 --cd 1 --pixel-size 0.01 -o profile"
+    )]
+    Inverse {
+        /// The image (PNG is sRGB-decoded unless --linear; EXR is linear).
+        image: PathBuf,
+        /// The row to invert (left to right).
+        #[arg(long, conflicts_with_all = ["from", "to"])]
+        row: Option<u32>,
+        /// Start pixel X,Y of the line.
+        #[arg(long, value_delimiter = ',')]
+        from: Vec<u32>,
+        /// End pixel X,Y of the line.
+        #[arg(long, value_delimiter = ',')]
+        to: Vec<u32>,
+        /// Light direction x,y,z in view coordinates (x right, y up, z toward the viewer).
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        light: Vec<f64>,
+        /// Ambient constant Ca (image value of a surface facing away from the light).
+        #[arg(long, default_value_t = 0.0)]
+        ca: f64,
+        /// Diffuse constant Cd (image value added by a surface facing the light).
+        #[arg(long)]
+        cd: Option<f64>,
+        /// Take Cd = pd·E/π and Ca = pd·A from a fit JSON with --irradiance E and --ambient A.
+        #[arg(long)]
+        fit: Option<PathBuf>,
+        /// Light irradiance E (with --fit).
+        #[arg(long, default_value_t = std::f64::consts::PI)]
+        irradiance: f64,
+        /// Ambient radiance A (with --fit).
+        #[arg(long, default_value_t = 0.0)]
+        ambient: f64,
+        /// World size of one pixel, for the heights.
+        #[arg(long, default_value_t = 1.0)]
+        pixel_size: f64,
+        /// Shape prior for the first pixel: convex or concave.
+        #[arg(long, default_value = "convex")]
+        prior: String,
+        /// A second image of the same view under --light2 (photometric stereo along the line).
+        #[arg(long)]
+        image2: Option<PathBuf>,
+        /// The second light direction x,y,z.
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        light2: Vec<f64>,
+        /// PNG values are already linear.
+        #[arg(long)]
+        linear: bool,
+        /// A CSV with columns pixel,height: the true profile, drawn with the estimate.
+        #[arg(long)]
+        truth: Option<PathBuf>,
+        /// Output base: BASE.csv and the profile plot BASE.svg/png.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Convert between formats: any → brdfit CSV, CSV (or any) → MERL .binary.
+    #[command(
+        after_help = "Example:\n  brdfit convert data/cayman.astm --channel cie-y -o cayman.csv"
+    )]
+    Convert {
+        /// Input data file.
+        input: PathBuf,
+        /// Output file; `.binary` writes MERL, anything else brdfit CSV.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Output format (csv or merl), overriding the output's extension.
+        #[arg(long)]
+        to: Option<String>,
+        #[command(flatten)]
+        load: LoadArgs,
+    },
+}
+
+/// Write to stdout; a closed pipe ends the program quietly.
+pub(crate) fn print(s: &str) -> Result<()> {
+    let mut out = std::io::stdout().lock();
+    match out.write_all(s.as_bytes()).and_then(|_| out.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => std::process::exit(0),
+        r => r.context("writing to standard output"),
+    }
+}
+
+pub(crate) fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Info { file, load } => {
+            let ds = load.load(&file)?;
+            print(&data::summary(&ds))
+        }
+        Command::Eval {
+            model,
+            directions,
+            output,
+        } => {
+            let m = model.build()?;
+            let dirs = data::load_directions(&directions)?;
+            let mut out = Dataset::new(Quantity::Brdf, vec![(String::new(), None)]);
+            for k in 0..dirs.len() {
+                let a = dirs.angles(k);
+                out.push(a, &[m.brdf(&Geometry::from_angles(a[0], a[1], a[2], a[3]))]);
+            }
+            out.meta.comments = vec![format!("brdfit eval: {m}")];
+            match output {
+                Some(p) => {
+                    guard(&p)?;
+                    if same_file(&directions, &p) {
+                        bail!(
+                            "{}: the output would overwrite the input\n  fix: choose another output path",
+                            p.display()
+                        );
+                    }
+                    Ok(data::write_csv(&out, &p)?)
+                }
+                None => {
+                    let mut buf = Vec::new();
+                    data::write_csv_to(&out, &mut buf)?;
+                    print(&String::from_utf8_lossy(&buf))
+                }
+            }
+        }
+        Command::Simulate {
+            model,
+            grid,
+            noise,
+            seed,
+            output,
+        } => {
+            let m = model.build()?;
+            let g = Grid::parse(&grid).map_err(|e| anyhow!("{e}"))?;
+            if !(noise.is_finite() && noise >= 0.0) {
+                bail!(
+                    "--noise {noise} must be a finite number ≥ 0\n  fix: e.g. --noise 0.01 for 1 %"
+                );
+            }
+            let mut ds = simulate(&m, &g.directions(seed), noise, seed);
+            ds.meta.comments = vec![
+                format!(
+                    "generated by: brdfit simulate --model {} --distribution {} --set {} --grid {grid} --noise {noise} --seed {seed}",
+                    m.kind,
+                    m.dist.name(),
+                    m.param_names()
+                        .iter()
+                        .zip(m.params())
+                        .map(|(n, v)| format!("{n}={v}"))
+                        .collect::<Vec<_>>()
+                        .join(",")
+                ),
+                format!("truth: {m}"),
+                "angles in degrees; f_r in 1/sr; mirror direction is phi_o = phi_i + 180".into(),
+            ];
+            data::write_csv(&ds, &output)?;
+            Ok(())
+        }
+        Command::Fit { fit, load } => run_fit(&fit, &load),
+        Command::Inverse {
+            image,
+            row,
+            from,
+            to,
+            light,
+            ca,
+            cd,
+            fit,
+            irradiance,
+            ambient,
+            pixel_size,
+            prior,
+            image2,
+            light2,
+            linear,
+            truth,
+            output,
+        } => {
+            use brdfit::inverse;
+            let read = |p: &Path| -> Result<(u32, u32, Vec<f64>)> {
+                let img = image::open(p).map_err(|e| {
+                    anyhow!(
+                        "{}: cannot read the image: {e}\n  fix: give a PNG or EXR",
+                        p.display()
+                    )
+                })?;
+                let is_exr = p.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+                let rgb = img.to_rgb32f();
+                let dec = |v: f32| -> f64 {
+                    let v = v as f64;
+                    if is_exr || linear {
+                        v
+                    } else if v <= 0.04045 {
+                        v / 12.92
+                    } else {
+                        ((v + 0.055) / 1.055).powf(2.4)
+                    }
+                };
+                let lum = rgb
+                    .pixels()
+                    .map(|px| (dec(px.0[0]) + dec(px.0[1]) + dec(px.0[2])) / 3.0)
+                    .collect();
+                Ok((rgb.width(), rgb.height(), lum))
+            };
+            let (w, h, lum) = read(&image)?;
+            let (a, b) = match (row, from.as_slice(), to.as_slice()) {
+                (Some(r), _, _) if r < h => ((0, r), (w - 1, r)),
+                (Some(r), _, _) => bail!("--row {r} is outside the image (height {h})"),
+                (None, [x0, y0], [x1, y1]) => ((*x0, *y0), (*x1, *y1)),
+                _ => bail!("no line given\n  fix: give --row Y, or --from X,Y --to X,Y"),
+            };
+            let (cd, ca) = match (cd, &fit) {
+                (Some(cd), _) => (cd, ca),
+                (None, Some(f)) => {
+                    let m = read_fits(f)?.remove(0).model_for(0);
+                    let pd = m.pd();
+                    (pd * irradiance / std::f64::consts::PI, pd * ambient)
+                }
+                (None, None) => bail!(
+                    "no diffuse constant\n  fix: give --cd VALUE, or --fit FILE (with --irradiance and --ambient)"
+                ),
+            };
+            if light.len() != 3 {
+                bail!("--light needs x,y,z");
+            }
+            let (dx, dy) = (b.0 as f64 - a.0 as f64, -(b.1 as f64 - a.1 as f64));
+            let len = (dx * dx + dy * dy).sqrt().max(1e-12);
+            let proj = |l: &[f64]| {
+                let n = (l[0] * l[0] + l[1] * l[1] + l[2] * l[2]).sqrt().max(1e-12);
+                [(l[0] * dx + l[1] * dy) / len / n, l[2] / n]
+            };
+            let samples = inverse::sample_line(w, h, &lum, a, b);
+            let pos: Vec<(u32, u32)> = samples.iter().map(|s| s.0).collect();
+            let vals: Vec<f64> = samples.iter().map(|s| s.1).collect();
+            let px = match image2 {
+                Some(p2) => {
+                    if light2.len() != 3 {
+                        bail!("--image2 needs --light2 x,y,z");
+                    }
+                    let (w2, h2, lum2) = read(&p2)?;
+                    if (w2, h2) != (w, h) {
+                        bail!(
+                            "{}: the second image is {w2}×{h2}, the first {w}×{h}",
+                            p2.display()
+                        );
+                    }
+                    let v2: Vec<f64> = inverse::sample_line(w, h, &lum2, a, b)
+                        .iter()
+                        .map(|s| s.1)
+                        .collect();
+                    inverse::invert_line_two_lights(
+                        &vals,
+                        &v2,
+                        proj(&light),
+                        proj(&light2),
+                        ca,
+                        cd,
+                        pixel_size,
+                    )
+                }
+                None => {
+                    let prior = match prior.as_str() {
+                        "convex" => inverse::Prior::Convex,
+                        "concave" => inverse::Prior::Concave,
+                        p => bail!("unknown prior '{p}'\n  fix: use --prior convex or concave"),
+                    };
+                    inverse::invert_line(&vals, proj(&light), ca, cd, pixel_size, prior)
+                }
+            };
+            let base = output.with_extension("");
+            brdfit::output::write_bytes_atomic(
+                &base.with_extension("csv"),
+                inverse::to_csv(&px, &pos).as_bytes(),
+            )?;
+            let mut series = vec![brdfit::plot::LobeSeries {
+                label: "estimated height".into(),
+                points: px
+                    .iter()
+                    .filter(|p| p.height.is_finite())
+                    .map(|p| (p.t, p.height))
+                    .collect(),
+                markers: false,
+            }];
+            if let Some(t) = truth {
+                let d = std::fs::read_to_string(&t)
+                    .with_context(|| format!("{}: cannot read", t.display()))?;
+                let pts: Vec<(f64, f64)> = d
+                    .lines()
+                    .skip(1)
+                    .filter_map(|l| {
+                        let mut it = l.split(',');
+                        Some((
+                            it.next()?.trim().parse().ok()?,
+                            it.next()?.trim().parse().ok()?,
+                        ))
+                    })
+                    .collect();
+                series.push(brdfit::plot::LobeSeries {
+                    label: "true height".into(),
+                    points: pts,
+                    markers: false,
+                });
+            }
+            let chart = brdfit::plot::XyChart {
+                title: format!("Height profile by inverse Phong: {}", image.display()),
+                x_label: "pixel along the line".into(),
+                y_label: "relative height (world units)".into(),
+                series,
+                log_x: false,
+                log_y: false,
+                hline: None,
+            };
+            brdfit::plot::save(&chart, &base)?;
+            let flagged = px.iter().filter(|p| p.flagged).count();
+            if flagged > 0 {
+                eprintln!(
+                    "note: {flagged} of {} pixels have no solution (value outside the model's range) and are flagged",
+                    px.len()
+                );
+            }
+            Ok(())
+        }
+        Command::Completions { shell } => {
+            use clap::CommandFactory;
+            let mut buf = Vec::new();
+            clap_complete::generate(shell, &mut Cli::command(), "brdfit", &mut buf);
+            print(&String::from_utf8_lossy(&buf))
+        }
+        Command::Export { fit, to, output } => {
+            use brdfit::export::{self, ExportFormat};
+            use clap::ValueEnum;
+            let fmt = to;
+            let to = to
+                .to_possible_value()
+                .map_or(String::new(), |v| v.get_name().to_string());
+            let r = read_fits(&fit)?.remove(0);
+            let m = r.model_for(0);
+            let id = fit
+                .file_stem()
+                .map_or("brdfit".into(), |s| s.to_string_lossy().into_owned());
+            let text = match fmt {
+                ExportFormat::Mitsuba => Some(export::mitsuba(&m, &id)),
+                ExportFormat::Pbrt => Some(export::pbrt(&m)),
+                ExportFormat::BrdfExplorer => Some(export::brdf_explorer(&m)),
+                ExportFormat::Merl | ExportFormat::Csv => None,
+            };
+            match (text, output) {
+                (Some(t), None) => print(&t),
+                (Some(t), Some(o)) => {
+                    guard(&o)?;
+                    Ok(brdfit::output::write_bytes_atomic(&o, t.as_bytes())?)
+                }
+                (None, None) => bail!("--to {to} writes a file\n  fix: add -o OUT"),
+                (None, Some(o)) => {
+                    guard(&o)?;
+                    if same_file(&fit, &o) {
+                        bail!(
+                            "{}: the output would overwrite the input\n  fix: choose another output path",
+                            o.display()
+                        );
+                    }
+                    if fmt == ExportFormat::Merl {
+                        data::merl::write_merl(&export::merl_dataset(&m), &o)?;
+                    } else {
+                        data::write_csv(&export::grid_dataset(&m), &o)?;
+                    }
+                    Ok(())
+                }
+            }
+        }
+        Command::Report {
+            files,
+            output,
+            stability_starts,
+            render_res,
+        } => {
+            let quiet = quiet();
+            let files = if files.is_empty() {
+                let f = brdfit::report::bundled_files(Path::new("data"));
+                if f.is_empty() {
+                    bail!(
+                        "no data files given and none found in data/\n  fix: run from the brdfit checkout, or name the files: brdfit report FILE..."
+                    );
+                }
+                f
+            } else {
+                files
+            };
+            let t = std::time::Instant::now();
+            brdfit::report::report(
+                &files,
+                &brdfit::report::ReportOptions {
+                    out: output.clone(),
+                    stability_starts: stability_starts.clamp(1, 100),
+                    render_res: render_res.clamp(16, 4096),
+                    verbose: !quiet,
+                },
+            )?;
+            if !quiet {
+                eprintln!(
+                    "report written to {}/index.html in {:.1} s",
+                    output.display(),
+                    t.elapsed().as_secs_f64()
+                );
+            }
+            Ok(())
+        }
+        Command::Render {
+            scene,
+            output,
+            aluminium,
+            mgo,
+            res,
+        } => run_render(
+            &scene,
+            &output,
+            aluminium.as_deref(),
+            mgo.as_deref(),
+            res,
+            quiet(),
+        ),
+        Command::Plot(cmd) => run_plot(cmd),
+        Command::Study(cmd) => run_study(cmd),
+        Command::Convert {
+            input,
+            output,
+            to,
+            load,
+        } => {
+            let ds = load.load(&input)?;
+            let to_merl = match to.as_deref() {
+                Some("merl") => true,
+                Some("csv") => false,
+                Some(t) => bail!("unknown output format '{t}'\n  fix: use --to csv or --to merl"),
+                None => Format::from_extension(&output) == Some(Format::Merl),
+            };
+            if same_file(&input, &output) {
+                bail!(
+                    "{}: the output would overwrite the input\n  fix: choose another output path",
+                    output.display()
+                );
+            }
+            guard(&output)?;
+            if to_merl {
+                data::merl::write_merl(&ds, &output)?;
+            } else {
+                data::write_csv(&ds, &output)?;
+            }
+            Ok(())
+        }
+    }
+}
+
+pub(crate) fn same_file(a: &Path, b: &Path) -> bool {
+    match (a.canonicalize(), b.canonicalize()) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => false,
+    }
+}
+
+pub(crate) fn main() -> ExitCode {
+    // Start rayon's worker threads now, while the arguments are parsed and the input is read,
+    // rather than inside the first timed parallel pass.
+    let _ = rayon::current_num_threads();
+    let cli = match Cli::try_parse() {
+        Ok(c) => {
+            FORCE.store(c.force, std::sync::atomic::Ordering::Relaxed);
+            QUIET.store(c.quiet, std::sync::atomic::Ordering::Relaxed);
+            VERBOSE.store(c.verbose && !c.quiet, std::sync::atomic::Ordering::Relaxed);
+            c
+        }
+        Err(e) => {
+            let _ = e.print();
+            return match e.kind() {
+                clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion => {
+                    ExitCode::SUCCESS
+                }
+                _ => ExitCode::from(2),
+            };
+        }
+    };
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}

@@ -1,0 +1,223 @@
+//! `brdfit plot …`: arguments and printing around the library's charts.
+
+use super::*;
+use anyhow::{Result, bail};
+use clap::Subcommand;
+use std::path::{Path, PathBuf};
+
+#[derive(Subcommand, Debug)]
+pub(crate) enum PlotCommand {
+    /// Polar plot of the reflected intensity in the plane of incidence, models against data.
+    #[command(
+        after_help = "Example:\n  brdfit plot lobe --fit fit.json --data data/blinn-mgo.csv --theta-i 30,70 -o lobe"
+    )]
+    Lobe {
+        /// Fit JSON files whose models are drawn (repeat for several).
+        #[arg(long)]
+        fit: Vec<PathBuf>,
+        #[command(flatten)]
+        model: OptModelArgs,
+        /// Measured data whose in-plane samples are overlaid.
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// Incidence angles in degrees, one panel each.
+        #[arg(long, value_delimiter = ',', default_value = "30,70")]
+        theta_i: Vec<f64>,
+        /// Radius: intensity (Blinn's i = π f_r cosθi) or brdf (f_r).
+        #[arg(long, default_value = "intensity")]
+        quantity: String,
+        /// Logarithmic radius (4 decades), for sharp measured peaks.
+        #[arg(long)]
+        log: bool,
+        /// Azimuth tolerance (degrees) for samples to count as in the plane of incidence.
+        #[arg(long, default_value_t = 1.0)]
+        tolerance: f64,
+        #[command(flatten)]
+        load: LoadArgs,
+        /// Output base name: writes BASE.svg and BASE.png.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Blinn's Figures 5 and 6: Phong against Torrance–Sparrow with equal β, at 30° and 70°.
+    #[command(after_help = "Example:\n  brdfit plot blinn-figures -o reports/figures")]
+    BlinnFigures {
+        /// Output directory (figure5.svg/png, figure6.svg/png).
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Residuals of a fit against θh, θd and θi, to show where a model fails.
+    #[command(
+        after_help = "Example:\n  brdfit plot residuals --fit fit.json data/blinn-mgo.csv -o reports/residuals"
+    )]
+    Residuals {
+        /// The fit JSON.
+        #[arg(long)]
+        fit: PathBuf,
+        /// The data it was fitted to.
+        data: PathBuf,
+        #[command(flatten)]
+        load: LoadArgs,
+        /// Output directory.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// θh × θd image of data and fit side by side (BRDF Explorer's image slice).
+    #[command(
+        after_help = "Example:\n  brdfit plot slice --fit fit.json data/merl-aluminium.csv --channel r -o slice"
+    )]
+    Slice {
+        /// The fit JSON.
+        #[arg(long)]
+        fit: PathBuf,
+        /// The data.
+        data: PathBuf,
+        #[command(flatten)]
+        load: LoadArgs,
+        /// Bins per axis.
+        #[arg(long, default_value_t = 45)]
+        bins: usize,
+        /// Output base name.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Directional albedo against θi by integration over the hemisphere (energy check).
+    #[command(after_help = "Example:\n  brdfit plot albedo --fit fit.json -o albedo")]
+    Albedo {
+        /// The fit JSON.
+        #[arg(long)]
+        fit: Option<PathBuf>,
+        #[command(flatten)]
+        model: OptModelArgs,
+        /// Output base name.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+}
+
+/// The output base name without extension.
+pub(crate) fn base(p: &Path) -> PathBuf {
+    match p.extension().and_then(|e| e.to_str()) {
+        Some("svg" | "png") => p.with_extension(""),
+        _ => p.to_path_buf(),
+    }
+}
+
+pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
+    use brdfit::plot;
+    match cmd {
+        PlotCommand::Lobe {
+            fit,
+            model,
+            data,
+            theta_i,
+            quantity,
+            log,
+            tolerance,
+            load,
+            output,
+        } => {
+            let q = match quantity.as_str() {
+                "intensity" => plot::LobeQuantity::Intensity,
+                "brdf" => plot::LobeQuantity::Brdf,
+                _ => {
+                    bail!("unknown quantity '{quantity}'\n  fix: use --quantity intensity or brdf")
+                }
+            };
+            let mut models = Vec::new();
+            for f in &fit {
+                for r in read_fits(f)? {
+                    models.push((format!("{} fit ({})", r.label(), r.channel), r.model_for(0)));
+                }
+            }
+            if let Some(m) = model.build()? {
+                models.push((format!("{m}"), m));
+            }
+            if models.is_empty() && data.is_none() {
+                bail!(
+                    "nothing to plot\n  fix: give --fit FILE, --model with --set, or --data FILE"
+                );
+            }
+            let ds = data.as_ref().map(|d| load.load(d)).transpose()?;
+            let title = match &data {
+                Some(d) => format!("Reflection in the plane of incidence: {}", d.display()),
+                None => "Reflection in the plane of incidence".to_string(),
+            };
+            let chart = plot::lobe_chart(
+                &title,
+                &models,
+                ds.as_ref().map(|d| (d, 0)),
+                &theta_i,
+                q,
+                log,
+                tolerance,
+            );
+            plot::save(&chart, &base(&output))?;
+            Ok(())
+        }
+        PlotCommand::BlinnFigures { output } => {
+            plot::save(&plot::blinn_figure(30.0, 5), &output.join("figure5"))?;
+            plot::save(&plot::blinn_figure(70.0, 6), &output.join("figure6"))?;
+            Ok(())
+        }
+        PlotCommand::Residuals {
+            fit,
+            data,
+            load,
+            output,
+        } => {
+            let r = read_fits(&fit)?.remove(0);
+            let ds = load.load(&data)?;
+            let pts = plot::residual_points(
+                &ds,
+                0,
+                &r.model_for(0),
+                r.loss == brdfit::fit::problem::Loss::Log,
+            );
+            for (name, chart) in plot::residual_charts(&r.label(), &pts) {
+                plot::save(&chart, &output.join(name))?;
+            }
+            Ok(())
+        }
+        PlotCommand::Slice {
+            fit,
+            data,
+            load,
+            bins,
+            output,
+        } => {
+            let r = read_fits(&fit)?.remove(0);
+            let ds = load.load(&data)?;
+            let (d, f) = plot::slice_grids(&ds, 0, &r.model_for(0), bins.clamp(2, 360));
+            let chart = plot::SliceChart {
+                title: format!("θh × θd slice: {} against {}", data.display(), r.label()),
+                n: bins.clamp(2, 360),
+                images: [d, f],
+            };
+            plot::save(&chart, &base(&output))?;
+            Ok(())
+        }
+        PlotCommand::Albedo { fit, model, output } => {
+            let (label, m) = match (fit, model.build()?) {
+                (Some(f), _) => {
+                    let r = read_fits(&f)?.remove(0);
+                    (r.label(), r.model_for(0))
+                }
+                (None, Some(m)) => (m.kind.to_string(), m),
+                (None, None) => bail!("no model\n  fix: give --fit FILE or --model with --set"),
+            };
+            let (chart, pts) = plot::albedo_chart(&label, &m);
+            plot::save(&chart, &base(&output))?;
+            let worst = pts
+                .iter()
+                .cloned()
+                .fold((0.0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
+            if worst.1 > 1.0 {
+                eprintln!(
+                    "warning: the albedo exceeds 1 (energy is created): ρ = {:.3} at θi = {}°",
+                    worst.1, worst.0
+                );
+            }
+            Ok(())
+        }
+    }
+}

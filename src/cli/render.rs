@@ -1,0 +1,93 @@
+//! `brdfit render`: scene files and Blinn's Figure 7 through the library's renderer.
+
+use super::*;
+use anyhow::{Result, bail};
+use brdfit::model::{Model, ModelKind};
+use std::path::Path;
+
+pub(crate) fn ts_model_from(fit: Option<&Path>, default: Model) -> Result<Model> {
+    match fit {
+        None => Ok(default),
+        Some(p) => {
+            let r = read_fits(p)?.remove(0);
+            if r.model != ModelKind::TorranceSparrow {
+                bail!(
+                    "{}: fig7 needs a torrance-sparrow fit, this is {}\n  fix: fit with --model torrance-sparrow",
+                    p.display(),
+                    r.model
+                );
+            }
+            Ok(r.model_for(0))
+        }
+    }
+}
+
+pub(crate) fn run_render(
+    scene: &str,
+    output: &Path,
+    al: Option<&Path>,
+    mgo: Option<&Path>,
+    res: u32,
+    quiet: bool,
+) -> Result<()> {
+    use brdfit::render;
+    if !(1..=8192).contains(&res) {
+        bail!("--res {res} is out of range\n  fix: give a resolution between 1 and 8192");
+    }
+    if scene == "fig7" {
+        let al = ts_model_from(al, Model::blinn_aluminium())?;
+        let mgo = ts_model_from(mgo, Model::blinn_mgo())?;
+        let t = std::time::Instant::now();
+        let imgs = render::fig7_images(
+            &al,
+            &mgo,
+            res,
+            render::AntiAlias::Adaptive {
+                threshold: 0.02,
+                max_level: 3,
+                block: 1,
+                jitter: false,
+            },
+        );
+        for (name, img) in &imgs {
+            render::save(img, &output.join(name))?;
+        }
+        brdfit::output::write_bytes_atomic(
+            &output.join("fig7.png"),
+            &render::contact_sheet(&imgs)?,
+        )?;
+        if !quiet {
+            eprintln!(
+                "rendered 8 images {res}×{res} in {:.2} s",
+                t.elapsed().as_secs_f64()
+            );
+        }
+        return Ok(());
+    }
+    let s = render::scene::load_scene(Path::new(scene))?;
+    let bar = if quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        progress_bar(s.camera.height as u64, "rows")
+    };
+    let t = std::time::Instant::now();
+    let img = s.render(&|| bar.inc(1));
+    let seconds = t.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    if !quiet {
+        eprintln!(
+            "rendered {}×{} in {seconds:.4} s: {:.2} primary rays per pixel, {} rays in all",
+            img.width,
+            img.height,
+            img.primary_per_pixel(),
+            img.total_rays()
+        );
+    }
+    let base = match output.extension().and_then(|e| e.to_str()) {
+        Some("png" | "exr") => output.with_extension(""),
+        _ => output.to_path_buf(),
+    };
+    guard(&base.with_extension("png"))?;
+    render::save(&img, &base)?;
+    Ok(())
+}
