@@ -16,7 +16,7 @@
 //! trapezoid rule at the pixel size.
 
 /// Prior on the shape for the first pixel of the line.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum Prior {
     /// Bulging toward the viewer.
     #[default]
@@ -236,4 +236,79 @@ pub fn to_csv(px: &[PixelNormal], pos: &[(u32, u32)]) -> String {
         ));
     }
     s
+}
+
+/// An image as linear luminance (the mean of R, G, B) row by row: EXR is linear; PNG and other
+/// 8-bit formats are sRGB-decoded (IEC 61966-2-1) unless `linear`. Returns width, height and
+/// the values, or the reader's message.
+pub fn luminance_image(
+    path: &std::path::Path,
+    linear: bool,
+) -> Result<(u32, u32, Vec<f64>), String> {
+    let img = image::open(path).map_err(|e| e.to_string())?;
+    let is_exr = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    let rgb = img.to_rgb32f();
+    let dec = |v: f32| -> f64 {
+        let v = v as f64;
+        if is_exr || linear {
+            v
+        } else if v <= 0.04045 {
+            v / 12.92
+        } else {
+            ((v + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let lum = rgb
+        .pixels()
+        .map(|px| (dec(px.0[0]) + dec(px.0[1]) + dec(px.0[2])) / 3.0)
+        .collect();
+    Ok((rgb.width(), rgb.height(), lum))
+}
+
+/// The (position, height) pairs of a truth CSV with a header line: the first two numeric
+/// columns of every line that has them.
+pub fn read_truth_csv(text: &str) -> Vec<(f64, f64)> {
+    text.lines()
+        .skip(1)
+        .filter_map(|l| {
+            let mut it = l.split(',');
+            Some((
+                it.next()?.trim().parse().ok()?,
+                it.next()?.trim().parse().ok()?,
+            ))
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod io_tests {
+    use super::*;
+
+    /// sRGB decoding against the standard's values: code 0.5 → 0.2140, 0.04 (linear segment)
+    /// → 0.04/12.92; `linear` keeps the code.
+    #[test]
+    fn luminance_decodes_srgb() {
+        let dir = std::env::temp_dir().join(format!("brdfit-lum-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("g.png");
+        let img = image::RgbImage::from_raw(2, 1, vec![128, 128, 128, 10, 10, 10]).unwrap();
+        img.save(&p).unwrap();
+        let (w, h, v) = luminance_image(&p, false).unwrap();
+        assert_eq!((w, h), (2, 1));
+        let c: f64 = 128.0 / 255.0;
+        assert!((v[0] - ((c + 0.055) / 1.055).powf(2.4)).abs() < 1e-6);
+        assert!((v[0] - 0.2158605).abs() < 1e-6, "{}", v[0]);
+        assert!((v[1] - 10.0 / 255.0 / 12.92).abs() < 1e-7);
+        let (_, _, lin) = luminance_image(&p, true).unwrap();
+        assert!((lin[0] - c).abs() < 1e-6);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn truth_csv_skips_header_and_bad_lines() {
+        let t = read_truth_csv("t,h\n0,1.5\nx,y\n2, 3\n");
+        assert_eq!(t, vec![(0.0, 1.5), (2.0, 3.0)]);
+    }
 }

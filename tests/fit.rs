@@ -734,3 +734,17 @@ fn all_parameters_fixed_reports_the_cost_at_them() {
     assert!(within(f.cost, want, 1e-12), "{} vs {want}", f.cost);
     assert!(f.stderr.iter().all(|s| *s == 0.0));
 }
+
+/// `fit_timed` (the `--repeat` of benchmarks) returns the same fit as one run: only the clock
+/// is a median.
+#[test]
+fn repeated_fits_give_the_same_result() {
+    let ds = load("data/blinn-mgo.csv");
+    let mut o = ts();
+    o.profile = false;
+    let one = fit::fit(&ds, &o).unwrap().remove(0);
+    let rep = fit::fit_timed(&ds, &o, 3).unwrap().remove(0);
+    assert_eq!(one.params, rep.params);
+    assert_eq!(one.cost, rep.cost);
+    assert!(rep.seconds > 0.0 && rep.geometry_seconds <= rep.seconds);
+}

@@ -205,26 +205,8 @@ pub(crate) fn fit_one(
         o.fast_pow = a.fast_pow;
         o.verify = a.verify;
         o.seed = a.verify_seed;
-        let mut fits = fit::fit(&ds, &o).map_err(|e| anyhow!("{}: {e}", file.display()))?;
-        if a.repeat > 1 {
-            let both = |f: &fit::FitResult| [f.seconds, f.geometry_seconds];
-            let mut times: Vec<Vec<[f64; 2]>> = fits.iter().map(|f| vec![both(f)]).collect();
-            for _ in 1..a.repeat {
-                let again = fit::fit(&ds, &o).map_err(|e| anyhow!("{}: {e}", file.display()))?;
-                for (t, f) in times.iter_mut().zip(&again) {
-                    t.push(both(f));
-                }
-            }
-            // Each time is the median of its own column.
-            let median = |t: &[[f64; 2]], k: usize| {
-                let mut v: Vec<f64> = t.iter().map(|x| x[k]).collect();
-                v.sort_by(f64::total_cmp);
-                v[v.len() / 2]
-            };
-            for (f, t) in fits.iter_mut().zip(&times) {
-                (f.seconds, f.geometry_seconds) = (median(t, 0), median(t, 1));
-            }
-        }
+        let fits = fit::fit_timed(&ds, &o, a.repeat as usize)
+            .map_err(|e| anyhow!("{}: {e}", file.display()))?;
         all.push(fits);
     }
     let mut text = String::new();

@@ -238,8 +238,8 @@ pub(crate) enum Command {
         #[arg(long, default_value_t = 1.0)]
         pixel_size: f64,
         /// Shape prior for the first pixel: convex or concave.
-        #[arg(long, default_value = "convex")]
-        prior: String,
+        #[arg(long, value_enum, default_value = "convex")]
+        prior: brdfit::inverse::Prior,
         /// A second image of the same view under --light2 (photometric stereo along the line).
         #[arg(long)]
         image2: Option<PathBuf>,
@@ -375,29 +375,12 @@ pub(crate) fn run(cli: Cli) -> Result<()> {
         } => {
             use brdfit::inverse;
             let read = |p: &Path| -> Result<(u32, u32, Vec<f64>)> {
-                let img = image::open(p).map_err(|e| {
+                inverse::luminance_image(p, linear).map_err(|e| {
                     anyhow!(
                         "{}: cannot read the image: {e}\n  fix: give a PNG or EXR",
                         p.display()
                     )
-                })?;
-                let is_exr = p.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-                let rgb = img.to_rgb32f();
-                let dec = |v: f32| -> f64 {
-                    let v = v as f64;
-                    if is_exr || linear {
-                        v
-                    } else if v <= 0.04045 {
-                        v / 12.92
-                    } else {
-                        ((v + 0.055) / 1.055).powf(2.4)
-                    }
-                };
-                let lum = rgb
-                    .pixels()
-                    .map(|px| (dec(px.0[0]) + dec(px.0[1]) + dec(px.0[2])) / 3.0)
-                    .collect();
-                Ok((rgb.width(), rgb.height(), lum))
+                })
             };
             let (w, h, lum) = read(&image)?;
             let (a, b) = match (row, from.as_slice(), to.as_slice()) {
@@ -455,14 +438,7 @@ pub(crate) fn run(cli: Cli) -> Result<()> {
                         pixel_size,
                     )
                 }
-                None => {
-                    let prior = match prior.as_str() {
-                        "convex" => inverse::Prior::Convex,
-                        "concave" => inverse::Prior::Concave,
-                        p => bail!("unknown prior '{p}'\n  fix: use --prior convex or concave"),
-                    };
-                    inverse::invert_line(&vals, proj(&light), ca, cd, pixel_size, prior)
-                }
+                None => inverse::invert_line(&vals, proj(&light), ca, cd, pixel_size, prior),
             };
             let base = output.with_extension("");
             brdfit::output::write_bytes_atomic(
@@ -481,17 +457,7 @@ pub(crate) fn run(cli: Cli) -> Result<()> {
             if let Some(t) = truth {
                 let d = std::fs::read_to_string(&t)
                     .with_context(|| format!("{}: cannot read", t.display()))?;
-                let pts: Vec<(f64, f64)> = d
-                    .lines()
-                    .skip(1)
-                    .filter_map(|l| {
-                        let mut it = l.split(',');
-                        Some((
-                            it.next()?.trim().parse().ok()?,
-                            it.next()?.trim().parse().ok()?,
-                        ))
-                    })
-                    .collect();
+                let pts = inverse::read_truth_csv(&d);
                 series.push(brdfit::plot::LobeSeries {
                     label: "true height".into(),
                     points: pts,
