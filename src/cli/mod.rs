@@ -3,12 +3,14 @@
 
 mod args;
 mod fit;
+mod inverse;
 mod plot;
 mod render;
 mod study;
 
 pub(crate) use args::*;
 pub(crate) use fit::*;
+pub(crate) use inverse::*;
 pub(crate) use plot::*;
 pub(crate) use render::*;
 pub(crate) use study::*;
@@ -204,58 +206,7 @@ pub(crate) enum Command {
     #[command(
         after_help = "Example:\n  brdfit inverse cyl.exr --row 128 --light 0.5,0.2,1 --ca 0.1 --cd 1 --pixel-size 0.01 -o profile"
     )]
-    Inverse {
-        /// The image (PNG is sRGB-decoded unless --linear; EXR is linear).
-        image: PathBuf,
-        /// The row to invert (left to right).
-        #[arg(long, conflicts_with_all = ["from", "to"])]
-        row: Option<u32>,
-        /// Start pixel X,Y of the line.
-        #[arg(long, value_delimiter = ',')]
-        from: Vec<u32>,
-        /// End pixel X,Y of the line.
-        #[arg(long, value_delimiter = ',')]
-        to: Vec<u32>,
-        /// Light direction x,y,z in view coordinates (x right, y up, z toward the viewer).
-        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
-        light: Vec<f64>,
-        /// Ambient constant Ca (image value of a surface facing away from the light).
-        #[arg(long, default_value_t = 0.0)]
-        ca: f64,
-        /// Diffuse constant Cd (image value added by a surface facing the light).
-        #[arg(long)]
-        cd: Option<f64>,
-        /// Take Cd = pd·E/π and Ca = pd·A from a fit JSON with --irradiance E and --ambient A.
-        #[arg(long)]
-        fit: Option<PathBuf>,
-        /// Light irradiance E (with --fit).
-        #[arg(long, default_value_t = std::f64::consts::PI)]
-        irradiance: f64,
-        /// Ambient radiance A (with --fit).
-        #[arg(long, default_value_t = 0.0)]
-        ambient: f64,
-        /// World size of one pixel, for the heights.
-        #[arg(long, default_value_t = 1.0)]
-        pixel_size: f64,
-        /// Shape prior for the first pixel: convex or concave.
-        #[arg(long, value_enum, default_value = "convex")]
-        prior: brdfit::inverse::Prior,
-        /// A second image of the same view under --light2 (photometric stereo along the line).
-        #[arg(long)]
-        image2: Option<PathBuf>,
-        /// The second light direction x,y,z.
-        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
-        light2: Vec<f64>,
-        /// PNG values are already linear.
-        #[arg(long)]
-        linear: bool,
-        /// A CSV with columns pixel,height: the true profile, drawn with the estimate.
-        #[arg(long)]
-        truth: Option<PathBuf>,
-        /// Output base: BASE.csv and the profile plot BASE.svg/png.
-        #[arg(short, long)]
-        output: PathBuf,
-    },
+    Inverse(InverseArgs),
     /// Convert between formats: any → brdfit CSV, CSV (or any) → MERL .binary.
     #[command(
         after_help = "Example:\n  brdfit convert data/cayman.astm --channel cie-y -o cayman.csv"
@@ -354,135 +305,7 @@ pub(crate) fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Fit { fit, load } => run_fit(&fit, &load),
-        Command::Inverse {
-            image,
-            row,
-            from,
-            to,
-            light,
-            ca,
-            cd,
-            fit,
-            irradiance,
-            ambient,
-            pixel_size,
-            prior,
-            image2,
-            light2,
-            linear,
-            truth,
-            output,
-        } => {
-            use brdfit::inverse;
-            let read = |p: &Path| -> Result<(u32, u32, Vec<f64>)> {
-                inverse::luminance_image(p, linear).map_err(|e| {
-                    anyhow!(
-                        "{}: cannot read the image: {e}\n  fix: give a PNG or EXR",
-                        p.display()
-                    )
-                })
-            };
-            let (w, h, lum) = read(&image)?;
-            let (a, b) = match (row, from.as_slice(), to.as_slice()) {
-                (Some(r), _, _) if r < h => ((0, r), (w - 1, r)),
-                (Some(r), _, _) => bail!("--row {r} is outside the image (height {h})"),
-                (None, [x0, y0], [x1, y1]) => ((*x0, *y0), (*x1, *y1)),
-                _ => bail!("no line given\n  fix: give --row Y, or --from X,Y --to X,Y"),
-            };
-            let (cd, ca) = match (cd, &fit) {
-                (Some(cd), _) => (cd, ca),
-                (None, Some(f)) => {
-                    let m = read_fits(f)?.remove(0).model_for(0);
-                    let pd = m.pd();
-                    (pd * irradiance / std::f64::consts::PI, pd * ambient)
-                }
-                (None, None) => bail!(
-                    "no diffuse constant\n  fix: give --cd VALUE, or --fit FILE (with --irradiance and --ambient)"
-                ),
-            };
-            if light.len() != 3 {
-                bail!("--light needs x,y,z");
-            }
-            let (dx, dy) = (b.0 as f64 - a.0 as f64, -(b.1 as f64 - a.1 as f64));
-            let len = (dx * dx + dy * dy).sqrt().max(1e-12);
-            let proj = |l: &[f64]| {
-                let n = (l[0] * l[0] + l[1] * l[1] + l[2] * l[2]).sqrt().max(1e-12);
-                [(l[0] * dx + l[1] * dy) / len / n, l[2] / n]
-            };
-            let samples = inverse::sample_line(w, h, &lum, a, b);
-            let pos: Vec<(u32, u32)> = samples.iter().map(|s| s.0).collect();
-            let vals: Vec<f64> = samples.iter().map(|s| s.1).collect();
-            let px = match image2 {
-                Some(p2) => {
-                    if light2.len() != 3 {
-                        bail!("--image2 needs --light2 x,y,z");
-                    }
-                    let (w2, h2, lum2) = read(&p2)?;
-                    if (w2, h2) != (w, h) {
-                        bail!(
-                            "{}: the second image is {w2}×{h2}, the first {w}×{h}",
-                            p2.display()
-                        );
-                    }
-                    let v2: Vec<f64> = inverse::sample_line(w, h, &lum2, a, b)
-                        .iter()
-                        .map(|s| s.1)
-                        .collect();
-                    inverse::invert_line_two_lights(
-                        &vals,
-                        &v2,
-                        proj(&light),
-                        proj(&light2),
-                        ca,
-                        cd,
-                        pixel_size,
-                    )
-                }
-                None => inverse::invert_line(&vals, proj(&light), ca, cd, pixel_size, prior),
-            };
-            let base = output.with_extension("");
-            brdfit::output::write_bytes_atomic(
-                &base.with_extension("csv"),
-                inverse::to_csv(&px, &pos).as_bytes(),
-            )?;
-            let mut series = vec![brdfit::plot::LobeSeries {
-                label: "estimated height".into(),
-                points: px
-                    .iter()
-                    .filter(|p| p.height.is_finite())
-                    .map(|p| (p.t, p.height))
-                    .collect(),
-                markers: false,
-            }];
-            if let Some(t) = truth {
-                let d = std::fs::read_to_string(&t)
-                    .with_context(|| format!("{}: cannot read", t.display()))?;
-                let pts = inverse::read_truth_csv(&d);
-                series.push(brdfit::plot::LobeSeries {
-                    label: "true height".into(),
-                    points: pts,
-                    markers: false,
-                });
-            }
-            let chart = brdfit::plot::XyChart {
-                title: format!("Height profile by inverse Phong: {}", image.display()),
-                x_label: "pixel along the line".into(),
-                y_label: "relative height (world units)".into(),
-                series,
-                log_x: false,
-                log_y: false,
-                hline: None,
-            };
-            brdfit::plot::save(&chart, &base)?;
-            let flagged = px.iter().filter(|p| p.flagged).count();
-            if flagged > 0 {
-                eprintln!(
-                    "note: {flagged} of {} pixels have no solution (value outside the model's range) and are flagged",
-                    px.len()
-                );
-            }
-            Ok(())
-        }
+        Command::Inverse(args) => run_inverse(args),
         Command::Completions { shell } => {
             use clap::CommandFactory;
             let mut buf = Vec::new();
