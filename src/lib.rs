@@ -41,6 +41,7 @@ pub mod output;
 pub mod plot;
 pub mod render;
 pub mod report;
+pub mod setting;
 pub mod simulate;
 pub mod study;
 

@@ -21,7 +21,7 @@ pub enum Grid {
 impl Grid {
     /// Parse `hemisphere:N` or `plane:θ1,θ2,…` (degrees).
     pub fn parse(s: &str) -> Result<Grid, String> {
-        let fix = "use --grid hemisphere:N (N samples) or --grid plane:30,70 (θi in degrees)";
+        let fix = "use hemisphere:N (N samples) or plane:30,70 (θi in degrees)";
         let (kind, arg) = s
             .split_once(':')
             .ok_or_else(|| format!("bad grid '{s}': {fix}"))?;

@@ -218,7 +218,10 @@ fn negative_policies() {
     );
     let e = load_with(&p, NegativePolicy::Error).unwrap_err();
     assert!(
-        e.line.is_some() && e.message.contains("negative") && e.fix.contains("--negative mask"),
+        e.line.is_some()
+            && e.message.contains("negative")
+            && e.fix.contains("mask")
+            && e.setting == Some(brdfit::setting::Setting::NegativePolicy),
         "{e}"
     );
     // The first negative is on line 4 of the file (first data row, blue -0.354828).

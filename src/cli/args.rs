@@ -132,7 +132,7 @@ impl ModelArgs {
     pub(crate) fn build(&self) -> Result<Model> {
         let (kind, dist) = (self.model, self.distribution);
         let set = parse_assignments("--set", &self.set)?;
-        let mut m = Model::from_named(kind, dist, &set).map_err(|e| anyhow!("{e}"))?;
+        let mut m = Model::from_named(kind, dist, &set)?;
         m.fast_pow = self.fast_pow;
         Ok(m)
     }

@@ -66,7 +66,7 @@ pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
                 all.push((f.clone(), fits));
             }
             Err(e) => {
-                eprintln!("error: {e:#}");
+                report_error(&e);
                 first_err.get_or_insert(e);
             }
         }
@@ -206,7 +206,7 @@ pub(crate) fn fit_one(
         o.verify = a.verify;
         o.seed = a.verify_seed;
         let fits = fit::fit_timed(&ds, &o, a.repeat as usize)
-            .map_err(|e| anyhow!("{}: {e}", file.display()))?;
+            .with_context(|| file.display().to_string())?;
         all.push(fits);
     }
     let mut text = String::new();

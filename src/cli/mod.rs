@@ -468,8 +468,45 @@ pub(crate) fn main() -> ExitCode {
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            report_error(&e);
             ExitCode::from(1)
         }
+    }
+}
+
+/// Print an error, and the flag that changes the setting a library error names (library
+/// errors say what to change, not how to spell it on this command line).
+pub(crate) fn report_error(e: &anyhow::Error) {
+    eprintln!("error: {e:#}");
+    if let Some(flag) = e.chain().find_map(setting_of).map(|s| flag(&s)) {
+        eprintln!("  on the command line: {flag}");
+    }
+}
+
+/// The setting a library error names, if any.
+fn setting_of(e: &(dyn std::error::Error + 'static)) -> Option<brdfit::setting::Setting> {
+    use brdfit::{data::DataError, fit::FitError, model::ModelError};
+    if let Some(d) = e.downcast_ref::<DataError>() {
+        return d.setting.clone();
+    }
+    if let Some(f) = e.downcast_ref::<FitError>() {
+        return f.setting.clone();
+    }
+    e.downcast_ref::<ModelError>().and_then(ModelError::setting)
+}
+
+/// The command-line spelling of a setting.
+pub(crate) fn flag(s: &brdfit::setting::Setting) -> String {
+    use brdfit::setting::Setting;
+    match s {
+        Setting::NegativePolicy => {
+            "--negative mask (treat as missing) or --negative clamp (set to 0)".into()
+        }
+        Setting::Format => "--format csv|astm|cornell|merl".into(),
+        Setting::Channel => "--channel NAME|INDEX|<λ>nm|cie-y".into(),
+        Setting::Hold(p) => format!("--fix {p}=VALUE"),
+        Setting::Start => "--start NAME=VALUE,…".into(),
+        Setting::Value(p) => format!("--set {p}=VALUE"),
+        Setting::MaxTheta => "--max-theta DEG, --negative, or --fix NAME=VALUE".into(),
     }
 }

@@ -212,7 +212,7 @@ pub fn tabulate(ds: &Dataset) -> Result<Vec<[f64; 3]>, String> {
         }
         _ => {
             return Err(format!(
-                "MERL holds r, g, b; this data has {} channels ({}): reduce it with --channel",
+                "MERL holds r, g, b; this data has {} channels ({}): reduce it to one channel",
                 ds.channels.len(),
                 ds.channel_names()
             ));
@@ -255,6 +255,7 @@ pub fn write_merl(ds: &Dataset, path: &Path) -> Result<(), DataError> {
             m,
             "reduce the data to one channel or to r, g, b first",
         )
+        .with_setting(crate::setting::Setting::Channel)
     })?;
     write_atomic(path, |w: &mut dyn Write| {
         for d in [90i32, 90, 180] {

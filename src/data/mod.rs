@@ -32,6 +32,8 @@ pub struct DataError {
     pub message: String,
     /// What the user should do.
     pub fix: String,
+    /// The setting that fix changes, if it is one.
+    pub setting: Option<crate::setting::Setting>,
 }
 
 impl DataError {
@@ -47,7 +49,14 @@ impl DataError {
             line,
             message: message.into(),
             fix: fix.into(),
+            setting: None,
         }
+    }
+
+    /// The same error, naming the setting its fix changes.
+    pub fn with_setting(mut self, s: crate::setting::Setting) -> Self {
+        self.setting = Some(s);
+        self
     }
 }
 
@@ -631,12 +640,14 @@ impl<'a> RowSink<'a> {
                         continue;
                     }
                     NegativePolicy::Error => {
-                        return Err(self.err(
-                            line,
-                            format!("negative value {v}"),
-                            "reflectance cannot be negative; use --negative mask (treat as missing) \
-                             or --negative clamp (set to 0)",
-                        ));
+                        return Err(self
+                            .err(
+                                line,
+                                format!("negative value {v}"),
+                                "reflectance cannot be negative; treat negative values as missing \
+                                 (mask) or set them to 0 (clamp)",
+                            )
+                            .with_setting(crate::setting::Setting::NegativePolicy));
                     }
                 }
             }
@@ -746,8 +757,9 @@ pub fn detect_format(path: &Path, head: &[u8]) -> Result<Format, DataError> {
         path,
         None,
         "unknown file format",
-        "name the file .csv, .astm, .brdf or .binary, or pass --format csv|astm|cornell|merl",
-    ))
+        "name the file .csv, .astm, .brdf or .binary, or choose the format (csv, astm, cornell, merl)",
+    )
+    .with_setting(crate::setting::Setting::Format))
 }
 
 /// Open `path` for reading with errors that say what to do.
@@ -824,8 +836,9 @@ pub(crate) fn read_text(path: &Path) -> Result<String, DataError> {
                 "not UTF-8 text (invalid byte at offset {})",
                 e.utf8_error().valid_up_to()
             ),
-            "save the file as UTF-8 text, or pass --format merl for a MERL binary",
+            "save the file as UTF-8 text, or choose the format merl for a MERL binary",
         )
+        .with_setting(crate::setting::Setting::Format)
     })
 }
 

@@ -20,6 +20,7 @@ use crate::data::Dataset;
 use crate::lanes::{self, LANES};
 use crate::model::Geometry;
 use crate::model::{Distribution, Model, ModelKind, ParamSpec, Role, Scale, readable};
+use crate::setting::Setting;
 use lsq::{Limits, Method, Problem, Robust, Solution};
 use problem::{BrdfProblem, Loss, Rows, Slot, Transform};
 use std::time::Instant;
@@ -32,12 +33,23 @@ pub struct FitError {
     pub message: String,
     /// What to do.
     pub fix: String,
+    /// The setting that fix changes, if it is one.
+    pub setting: Option<Setting>,
 }
 
 fn fit_error(message: impl Into<String>, fix: impl Into<String>) -> FitError {
     FitError {
         message: message.into(),
         fix: fix.into(),
+        setting: None,
+    }
+}
+
+impl FitError {
+    /// The same error, naming the setting its fix changes.
+    fn with(mut self, s: Setting) -> Self {
+        self.setting = Some(s);
+        self
     }
 }
 
@@ -484,7 +496,10 @@ pub fn fit(ds: &Dataset, opts: &FitOptions) -> Result<Vec<FitResult>, FitError> 
     for s in &opts.shared {
         if !names.contains(&s.as_str()) {
             return Err(fit_error(
-                format!("--shared {s}: model {} has no parameter {s}", opts.kind),
+                format!(
+                    "shared parameter {s}: model {} has no parameter {s}",
+                    opts.kind
+                ),
                 format!("its parameters are {}", names.join(", ")),
             ));
         }
@@ -616,8 +631,9 @@ fn check_data(
     if m <= nfree {
         return Err(fit_error(
             format!("channel {label}: {m} usable samples for {nfree} free parameters"),
-            "a fit needs more samples than free parameters: check --max-theta, the negative policy, or --fix some parameters",
-        ));
+            "a fit needs more samples than free parameters: check the largest angle used, the negative policy, or hold some parameters",
+        )
+        .with(Setting::MaxTheta));
     }
     if chans.iter().all(|c| c.all_zero) {
         return Err(fit_error(
@@ -625,11 +641,11 @@ fn check_data(
             "there is no reflectance to fit; check the channel and the file",
         ));
     }
-    let index_free = opts
+    let index = opts
         .kind
         .index_of(opts.dist, Role::Index)
-        .is_some_and(|i| matches!(lay.slots[0][i], Slot::Free(_)));
-    if index_free
+        .filter(|&i| matches!(lay.slots[0][i], Slot::Free(_)));
+    if let Some(index) = index
         && let Some(t) = chans[0].one_incidence
         && chans
             .iter()
@@ -640,8 +656,11 @@ fn check_data(
                 "channel {label}: every sample has θi = {:.2}°; the Fresnel index n cannot be separated from ps at one incidence angle",
                 t.to_degrees()
             ),
-            "add samples at other incidence angles, or hold the index with --fix n=VALUE",
-        ));
+            "add samples at other incidence angles, or hold the index at a value",
+        )
+        .with(Setting::Hold(
+            opts.kind.params(opts.dist)[index].name.into(),
+        )));
     }
     Ok(())
 }
@@ -966,8 +985,9 @@ fn fit_group(
     if !found.sol.cost.is_finite() {
         return Err(fit_error(
             format!("channel {channel_label}: the fit found no point with a finite cost"),
-            "check the data for extreme values, or give a --start",
-        ));
+            "check the data for extreme values, or give a start point",
+        )
+        .with(Setting::Start));
     }
     // Statistics in natural parameters, on the declared (not the robust) loss.
     let cost = if found.robust == Robust::None {

@@ -491,11 +491,23 @@ pub(crate) fn blinn_material(alpha: Option<f64>, n: Option<f64>, pd: f64) -> Mat
     }
 }
 
+impl ModelError {
+    /// The setting that fixes the error, if it is one value.
+    pub fn setting(&self) -> Option<crate::setting::Setting> {
+        match self {
+            ModelError::Missing { name, .. } | ModelError::OutOfBounds { name, .. } => {
+                Some(crate::setting::Setting::Value(name.to_string()))
+            }
+            ModelError::Unknown { .. } => None,
+        }
+    }
+}
+
 /// An invalid model specification, with the fix.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum ModelError {
     /// A parameter is missing from `--set`.
-    #[error("model {model} needs parameter {name}: add --set {name}=VALUE")]
+    #[error("model {model} needs parameter {name}: give it a value")]
     Missing {
         /// Model name.
         model: &'static str,
