@@ -750,3 +750,22 @@ fn fit_verify_writes_the_certificate_and_real_cases_reach_their_minima() {
         assert!(cost <= best * 1.001, "{file}: cost {cost}, minimum {best}");
     }
 }
+
+/// A library error is printed once, says what to change in its own words, and the command line
+/// adds the flag that changes it.
+#[test]
+fn errors_print_once_with_the_flag() {
+    let out = brdfit(&[
+        "fit",
+        "data/cayman.astm",
+        "--channel",
+        "550nm",
+        "--max-theta",
+        "1",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(err.matches("error:").count(), 1, "{err}");
+    assert!(err.contains("0 usable samples"), "{err}");
+    assert!(err.contains("on the command line: --max-theta"), "{err}");
+}

@@ -66,7 +66,10 @@ pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
                 all.push((f.clone(), fits));
             }
             Err(e) => {
-                report_error(&e);
+                // One file: main reports the error; a batch reports each and goes on.
+                if a.files.len() > 1 {
+                    report_error(&e);
+                }
                 first_err.get_or_insert(e);
             }
         }

@@ -362,7 +362,7 @@ impl ParamSpec {
             Scale::Log { offset } if offset > 0.0 => (offset, "≤"),
             Scale::Log { offset } => (offset, "<"),
         };
-        if self.hi.is_finite() {
+        if self.natural_hi().is_finite() {
             format!(
                 "{} {op} {} ≤ {}",
                 readable(low),
