@@ -429,7 +429,7 @@ pub struct Prepared {
 impl BrdfProblem {
     /// Number of model parameters.
     pub fn n_model_params(&self) -> usize {
-        self.template.param_names().len()
+        self.template.specs().len()
     }
 
     /// Each channel's model parameters for solver variables `x`.
