@@ -40,7 +40,7 @@ pub fn parse_truth(ds: &Dataset) -> Option<Model> {
 }
 
 /// One row of the speed–accuracy table.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SpeedRow {
     /// Method name (lm, gn, nm, or scipy).
     pub method: String,
@@ -218,7 +218,8 @@ pub fn speed_tables(rows: &[SpeedRow], with_times: bool) -> (String, String) {
 }
 
 /// A sampling pattern of the stability study.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Pattern {
     /// Light and eye over the whole hemisphere.
     Hemisphere,
@@ -278,7 +279,7 @@ impl Pattern {
 }
 
 /// One cell of the stability table.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StabilityRow {
     /// Relative noise σ.
     pub noise: f64,
@@ -514,7 +515,7 @@ pub fn scipy_peer(ds: &Dataset, python: &str, script: &std::path::Path) -> Optio
 }
 
 /// One row of the render study.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RenderRow {
     /// `uniform` or `adaptive`.
     pub mode: String,

@@ -59,6 +59,14 @@ fn text_exports_carry_the_mapping() {
     assert!(b.contains("::begin shader") && b.contains("::end shader"));
     // Beckmann-matched α of a cosine power: √(2/(c1+2)).
     let bp = Model::new(ModelKind::BlinnPhong, Distribution::D3, &[98.0, 0.5, 0.5]).unwrap();
+    // The mapping is a serde value (tagged by material type), read back equal.
+    let mat = bp.material();
+    let text = serde_json::to_string(&mat).unwrap();
+    assert!(text.contains("\"type\":\"plastic\""), "{text}");
+    assert_eq!(
+        serde_json::from_str::<brdfit::model::Material>(&text).unwrap(),
+        mat
+    );
     match bp.material().kind {
         MaterialKind::Plastic { alpha, .. } => {
             assert!((alpha - (2.0f64 / 100.0).sqrt()).abs() < 1e-15)

@@ -48,6 +48,10 @@ fn speed_accuracy_covers_every_method_and_model() {
 fn stability_counts_starts_per_configuration() {
     let rows = study::stability(&Model::blinn_mgo(), 2, 1500, 3);
     assert_eq!(rows.len(), 16 * 6);
+    // The rows are serde values: written and read back equal.
+    let text = serde_json::to_string(&rows).unwrap();
+    let back: Vec<study::StabilityRow> = serde_json::from_str(&text).unwrap();
+    assert_eq!(back, rows);
     assert!(rows.iter().all(|r| r.starts == 2 && r.hits <= 2));
     // With the global initialisation LM reaches the minimum on the full hemisphere at 1 % noise.
     let r = rows

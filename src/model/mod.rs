@@ -419,7 +419,7 @@ pub(crate) const PD: ParamSpec = ParamSpec {
 /// How a model maps onto the materials of Mitsuba 3 and pbrt-v4: the nearest one, with every
 /// value in the target's own terms, and whether the target's model is the same (`exact`) or
 /// what differs (`differs`).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Material {
     /// The target material.
     pub kind: MaterialKind,
@@ -431,7 +431,8 @@ pub struct Material {
 }
 
 /// The materials brdfit exports to.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(tag = "type", rename_all = "kebab-case")]
 pub enum MaterialKind {
     /// Lambertian reflectance (Mitsuba `diffuse`, pbrt `diffuse`).
     Diffuse {
