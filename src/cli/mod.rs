@@ -4,6 +4,7 @@
 mod args;
 mod fit;
 mod inverse;
+mod io;
 mod plot;
 mod render;
 mod study;
@@ -11,14 +12,13 @@ mod study;
 pub(crate) use args::*;
 pub(crate) use fit::*;
 pub(crate) use inverse::*;
+pub(crate) use io::*;
 pub(crate) use plot::*;
 pub(crate) use render::*;
 pub(crate) use study::*;
 
-use anyhow::{Context, Result, anyhow, bail};
-use brdfit::data::{self, Dataset, Format, Quantity};
-use brdfit::model::Geometry;
-use brdfit::simulate::{Grid, simulate};
+use anyhow::{Context, Result, bail};
+use brdfit::data::{self};
 use clap::{Parser, Subcommand};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -113,35 +113,12 @@ pub(crate) enum Command {
     #[command(
         after_help = "Example:\n  brdfit eval --model torrance-sparrow --set n=1.8,c3=0.35,ps=0.667,pd=0.333 dirs.csv -o out.csv"
     )]
-    Eval {
-        #[command(flatten)]
-        model: ModelArgs,
-        /// CSV whose theta_i/phi_i/theta_o/phi_o columns (with _deg or _rad) give the directions.
-        directions: PathBuf,
-        /// Output CSV (standard output when omitted).
-        #[arg(short, long)]
-        output: Option<PathBuf>,
-    },
+    Eval(EvalArgs),
     /// Write synthetic samples of a model, with seeded multiplicative Gaussian noise.
     #[command(
         after_help = "Example:\n  brdfit simulate --model torrance-sparrow --set n=1.8,c3=0.35,ps=0.667,pd=0.333 \\\n    --grid hemisphere:10000 --noise 0.01 --seed 1 -o mgo.csv"
     )]
-    Simulate {
-        #[command(flatten)]
-        model: ModelArgs,
-        /// Sampling: hemisphere:N (N seeded random directions) or plane:θ1,θ2,… (degrees).
-        #[arg(long, default_value = "hemisphere:10000")]
-        grid: String,
-        /// Relative noise σ: each value is multiplied by (1 + σ ε), ε ~ N(0, 1).
-        #[arg(long, default_value_t = 0.0)]
-        noise: f64,
-        /// Seed of the random stream (directions and noise).
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Output CSV.
-        #[arg(short, long)]
-        output: PathBuf,
-    },
+    Simulate(SimulateArgs),
     /// Fit a model (or all of them, ranked by BIC) to a data file by nonlinear least squares.
     #[command(
         after_help = "Examples:\n  brdfit fit data/blinn-mgo.csv\n  brdfit fit data/merl-aluminium.csv --model all --json fits.json\n  brdfit fit data/cayman.astm --channel cie-y --model phong --max-theta 80"
@@ -182,17 +159,7 @@ pub(crate) enum Command {
     #[command(
         after_help = "Examples:\n  brdfit export fit.json --to mitsuba\n  brdfit export fit.json --to merl -o fitted.binary"
     )]
-    Export {
-        /// The fit JSON (from brdfit fit --json or brdfit report).
-        fit: PathBuf,
-        /// Target: mitsuba (BSDF XML), pbrt (pbrt-v4 material), brdf-explorer (.brdf analytic),
-        /// merl (.binary table), csv (the model on a 5°/15° grid).
-        #[arg(long, value_enum)]
-        to: brdfit::export::ExportFormat,
-        /// Output file (text formats go to standard output when omitted).
-        #[arg(short, long)]
-        output: Option<PathBuf>,
-    },
+    Export(ExportArgs),
     /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
     #[command(after_help = "Example:\n  brdfit completions bash > /etc/bash_completion.d/brdfit")]
     Completions {
@@ -211,18 +178,7 @@ pub(crate) enum Command {
     #[command(
         after_help = "Example:\n  brdfit convert data/cayman.astm --channel cie-y -o cayman.csv"
     )]
-    Convert {
-        /// Input data file.
-        input: PathBuf,
-        /// Output file; `.binary` writes MERL, anything else brdfit CSV.
-        #[arg(short, long)]
-        output: PathBuf,
-        /// Output format (csv or merl), overriding the output's extension.
-        #[arg(long)]
-        to: Option<String>,
-        #[command(flatten)]
-        load: LoadArgs,
-    },
+    Convert(ConvertArgs),
 }
 
 /// Write to stdout; a closed pipe ends the program quietly.
@@ -240,70 +196,8 @@ pub(crate) fn run(cli: Cli) -> Result<()> {
             let ds = load.load(&file)?;
             print(&data::summary(&ds))
         }
-        Command::Eval {
-            model,
-            directions,
-            output,
-        } => {
-            let m = model.build()?;
-            let dirs = data::load_directions(&directions)?;
-            let mut out = Dataset::new(Quantity::Brdf, vec![(String::new(), None)]);
-            for k in 0..dirs.len() {
-                let a = dirs.angles(k);
-                out.push(a, &[m.brdf(&Geometry::from_angles(a[0], a[1], a[2], a[3]))]);
-            }
-            out.meta.comments = vec![format!("brdfit eval: {m}")];
-            match output {
-                Some(p) => {
-                    guard(&p)?;
-                    if same_file(&directions, &p) {
-                        bail!(
-                            "{}: the output would overwrite the input\n  fix: choose another output path",
-                            p.display()
-                        );
-                    }
-                    Ok(data::write_csv(&out, &p)?)
-                }
-                None => {
-                    let mut buf = Vec::new();
-                    data::write_csv_to(&out, &mut buf)?;
-                    print(&String::from_utf8_lossy(&buf))
-                }
-            }
-        }
-        Command::Simulate {
-            model,
-            grid,
-            noise,
-            seed,
-            output,
-        } => {
-            let m = model.build()?;
-            let g = Grid::parse(&grid).map_err(|e| anyhow!("{e}"))?;
-            if !(noise.is_finite() && noise >= 0.0) {
-                bail!(
-                    "--noise {noise} must be a finite number ≥ 0\n  fix: e.g. --noise 0.01 for 1 %"
-                );
-            }
-            let mut ds = simulate(&m, &g.directions(seed), noise, seed);
-            ds.meta.comments = vec![
-                format!(
-                    "generated by: brdfit simulate --model {} --distribution {} --set {} --grid {grid} --noise {noise} --seed {seed}",
-                    m.kind,
-                    m.dist.name(),
-                    m.param_names()
-                        .iter()
-                        .zip(m.params())
-                        .map(|(n, v)| format!("{n}={v}"))
-                        .collect::<Vec<_>>()
-                        .join(",")
-                ),
-                format!("truth: {m}"),
-                "angles in degrees; f_r in 1/sr; mirror direction is phi_o = phi_i + 180".into(),
-            ];
-            data::write_csv(&ds, &output)?;
-            Ok(())
-        }
+        Command::Eval(args) => run_eval(args),
+        Command::Simulate(args) => run_simulate(args),
         Command::Fit { fit, load } => run_fit(&fit, &load),
         Command::Inverse(args) => run_inverse(args),
         Command::Completions { shell } => {
@@ -312,48 +206,7 @@ pub(crate) fn run(cli: Cli) -> Result<()> {
             clap_complete::generate(shell, &mut Cli::command(), "brdfit", &mut buf);
             print(&String::from_utf8_lossy(&buf))
         }
-        Command::Export { fit, to, output } => {
-            use brdfit::export::{self, ExportFormat};
-            use clap::ValueEnum;
-            let fmt = to;
-            let to = to
-                .to_possible_value()
-                .map_or(String::new(), |v| v.get_name().to_string());
-            let r = read_fits(&fit)?.remove(0);
-            let m = r.model_for(0);
-            let id = fit
-                .file_stem()
-                .map_or("brdfit".into(), |s| s.to_string_lossy().into_owned());
-            let text = match fmt {
-                ExportFormat::Mitsuba => Some(export::mitsuba(&m, &id)),
-                ExportFormat::Pbrt => Some(export::pbrt(&m)),
-                ExportFormat::BrdfExplorer => Some(export::brdf_explorer(&m)),
-                ExportFormat::Merl | ExportFormat::Csv => None,
-            };
-            match (text, output) {
-                (Some(t), None) => print(&t),
-                (Some(t), Some(o)) => {
-                    guard(&o)?;
-                    Ok(brdfit::output::write_bytes_atomic(&o, t.as_bytes())?)
-                }
-                (None, None) => bail!("--to {to} writes a file\n  fix: add -o OUT"),
-                (None, Some(o)) => {
-                    guard(&o)?;
-                    if same_file(&fit, &o) {
-                        bail!(
-                            "{}: the output would overwrite the input\n  fix: choose another output path",
-                            o.display()
-                        );
-                    }
-                    if fmt == ExportFormat::Merl {
-                        data::merl::write_merl(&export::merl_dataset(&m), &o)?;
-                    } else {
-                        data::write_csv(&export::grid_dataset(&m), &o)?;
-                    }
-                    Ok(())
-                }
-            }
-        }
+        Command::Export(args) => run_export(args),
         Command::Report {
             files,
             output,
@@ -407,33 +260,7 @@ pub(crate) fn run(cli: Cli) -> Result<()> {
         ),
         Command::Plot(cmd) => run_plot(cmd),
         Command::Study(cmd) => run_study(cmd),
-        Command::Convert {
-            input,
-            output,
-            to,
-            load,
-        } => {
-            let ds = load.load(&input)?;
-            let to_merl = match to.as_deref() {
-                Some("merl") => true,
-                Some("csv") => false,
-                Some(t) => bail!("unknown output format '{t}'\n  fix: use --to csv or --to merl"),
-                None => Format::from_extension(&output) == Some(Format::Merl),
-            };
-            if same_file(&input, &output) {
-                bail!(
-                    "{}: the output would overwrite the input\n  fix: choose another output path",
-                    output.display()
-                );
-            }
-            guard(&output)?;
-            if to_merl {
-                data::merl::write_merl(&ds, &output)?;
-            } else {
-                data::write_csv(&ds, &output)?;
-            }
-            Ok(())
-        }
+        Command::Convert(args) => run_convert(args),
     }
 }
 
