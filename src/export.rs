@@ -24,14 +24,7 @@ pub enum ExportFormat {
 impl ExportFormat {
     /// Parse a command-line name.
     pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "mitsuba" => Some(Self::Mitsuba),
-            "pbrt" => Some(Self::Pbrt),
-            "brdf-explorer" => Some(Self::BrdfExplorer),
-            "merl" => Some(Self::Merl),
-            "csv" => Some(Self::Csv),
-            _ => None,
-        }
+        <Self as clap::ValueEnum>::from_str(s, true).ok()
     }
 }
 

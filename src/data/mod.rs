@@ -110,8 +110,10 @@ pub enum Format {
     /// ASTM E1392 text.
     Astm,
     /// Cornell / pbrt-v2 spectral text.
+    #[value(alias = "brdf", alias = "pbrt")]
     Cornell,
     /// MERL `.binary` table.
+    #[value(alias = "binary")]
     Merl,
 }
 
@@ -128,13 +130,7 @@ impl Format {
 
     /// Parse a command-line name.
     pub fn parse(s: &str) -> Option<Self> {
-        match s.to_ascii_lowercase().as_str() {
-            "csv" => Some(Format::Csv),
-            "astm" => Some(Format::Astm),
-            "cornell" | "brdf" | "pbrt" => Some(Format::Cornell),
-            "merl" | "binary" => Some(Format::Merl),
-            _ => None,
-        }
+        <Self as clap::ValueEnum>::from_str(s, true).ok()
     }
 
     /// Format implied by a file extension, if any.
@@ -165,12 +161,7 @@ pub enum NegativePolicy {
 impl NegativePolicy {
     /// Parse `mask`, `clamp` or `error`.
     pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "mask" => Some(NegativePolicy::Mask),
-            "clamp" => Some(NegativePolicy::Clamp),
-            "error" => Some(NegativePolicy::Error),
-            _ => None,
-        }
+        <Self as clap::ValueEnum>::from_str(s, true).ok()
     }
 }
 

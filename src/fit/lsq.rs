@@ -152,13 +152,14 @@ pub enum Method {
     /// Levenberg–Marquardt (default).
     #[default]
     #[serde(rename = "lm")]
+    #[value(alias = "levenberg-marquardt")]
     Lm,
     /// Gauss–Newton with line search.
-    #[value(name = "gn")]
+    #[value(name = "gn", alias = "gauss-newton")]
     #[serde(rename = "gn")]
     GaussNewton,
     /// Nelder–Mead simplex.
-    #[value(name = "nm")]
+    #[value(name = "nm", alias = "nelder-mead")]
     #[serde(rename = "nm")]
     NelderMead,
 }
@@ -175,12 +176,7 @@ impl Method {
 
     /// Parse `lm`, `gn` or `nm` (also long names).
     pub fn parse(s: &str) -> Option<Self> {
-        match s.to_ascii_lowercase().as_str() {
-            "lm" | "levenberg-marquardt" => Some(Method::Lm),
-            "gn" | "gauss-newton" => Some(Method::GaussNewton),
-            "nm" | "nelder-mead" => Some(Method::NelderMead),
-            _ => None,
-        }
+        <Self as clap::ValueEnum>::from_str(s, true).ok()
     }
 }
 

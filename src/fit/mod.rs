@@ -1373,6 +1373,15 @@ struct Basis<'a> {
     b: &'a [f64],
 }
 
+/// The √weights of rows `range`, or an empty slice for unweighted rows.
+fn weights(rows: &Rows, range: std::ops::Range<usize>) -> &[f64] {
+    if rows.weighted() {
+        &rows.sw[range]
+    } else {
+        &[]
+    }
+}
+
 /// One pass of the declared loss over rows `range` for model values f = a·s + b (s the
 /// basis): ½ Σ r² with r = sw (ℓ(f) − target), and the normal equations of (a, b):
 /// [JᵀJ_aa, JᵀJ_ab, JᵀJ_bb] and [Jᵀr_a, Jᵀr_b].
@@ -1383,11 +1392,7 @@ fn linear_pass(
     ab: (f64, f64),
     loss: Loss,
 ) -> (f64, [f64; 3], [f64; 2]) {
-    let sw = if rows.weighted() {
-        &rows.sw[range.clone()]
-    } else {
-        &[][..]
-    };
+    let sw = weights(rows, range.clone());
     let t = match loss {
         Loss::Log => linear_pass_log(
             &rows.nl[range.clone()],
@@ -1521,11 +1526,7 @@ fn refine_linear(
     let lo = (lo.0.unwrap_or(f64::MIN), lo.1.unwrap_or(f64::MIN));
     let mut x = start;
     if steps == 0 && loss == Loss::Log {
-        let sw = if rows.weighted() {
-            &rows.sw[range.clone()]
-        } else {
-            &[][..]
-        };
+        let sw = weights(rows, range.clone());
         let cost = linear_cost_log(
             &rows.nl[range.clone()],
             &rows.target[range.clone()],

@@ -37,11 +37,7 @@ impl Loss {
 
     /// Parse `log` or `linear`.
     pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "log" => Some(Loss::Log),
-            "linear" => Some(Loss::Linear),
-            _ => None,
-        }
+        <Self as clap::ValueEnum>::from_str(s, true).ok()
     }
 
     /// The data-side term: ln(1 + cosθi f) or f.

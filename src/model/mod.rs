@@ -338,12 +338,18 @@ impl ParamSpec {
     /// natural limit (≤ 1, as for c3 and α; larger fitting bounds such as n ≤ 1e7 bound the
     /// search, not the model).
     pub fn admits(&self, v: f64) -> bool {
-        let above = match self.scale {
-            Scale::Linear => v >= self.lo,
-            Scale::Log { offset } if offset > 0.0 => v >= offset,
-            Scale::Log { offset } => v > offset,
-        };
+        let (low, strict) = self.floor();
+        let above = if strict { v > low } else { v >= low };
         v.is_finite() && above && v <= self.natural_hi()
+    }
+
+    /// The lowest admissible value, and whether it is itself excluded: lo for a linear
+    /// parameter, the offset for a log-scale one (excluded when it is 0).
+    fn floor(&self) -> (f64, bool) {
+        match self.scale {
+            Scale::Linear => (self.lo, false),
+            Scale::Log { offset } => (offset, offset <= 0.0),
+        }
     }
 
     /// The upper limit a value may take: `hi` when it is a natural limit (≤ 1), else ∞.
@@ -357,11 +363,8 @@ impl ParamSpec {
 
     /// The admissible values as text, e.g. `0 < c3 ≤ 1` or `ps ≥ 0`.
     pub fn bounds_text(&self) -> String {
-        let (low, op) = match self.scale {
-            Scale::Linear => (self.lo, "≤"),
-            Scale::Log { offset } if offset > 0.0 => (offset, "≤"),
-            Scale::Log { offset } => (offset, "<"),
-        };
+        let (low, strict) = self.floor();
+        let op = if strict { "<" } else { "≤" };
         if self.natural_hi().is_finite() {
             format!(
                 "{} {op} {} ≤ {}",

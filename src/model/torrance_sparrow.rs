@@ -213,12 +213,7 @@ impl Distribution {
 
     /// Parse `d1`, `d2` or `d3`.
     pub fn parse(s: &str) -> Option<Self> {
-        match s.to_ascii_lowercase().as_str() {
-            "d1" => Some(Distribution::D1),
-            "d2" => Some(Distribution::D2),
-            "d3" => Some(Distribution::D3),
-            _ => None,
-        }
+        <Self as clap::ValueEnum>::from_str(s, true).ok()
     }
 
     /// D(α) at cos α = `nh` for shape parameter `c`.
