@@ -35,7 +35,7 @@ pub mod data;
 pub mod export;
 pub mod fit;
 pub mod inverse;
-pub mod lanes;
+pub(crate) mod lanes;
 pub mod model;
 pub mod output;
 pub mod plot;
