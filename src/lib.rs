@@ -31,6 +31,7 @@
 // `!(x <= limit)` is deliberate: it is true for NaN, which must count as failing a test.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod choose;
 pub mod data;
 pub mod export;
 pub mod fit;

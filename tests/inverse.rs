@@ -39,6 +39,7 @@ fn scene(shape: Shape) -> Scene {
             kt: 0.0,
             ior: 1.5,
             roughness: None,
+            measured: None,
         }],
         // Irradiance π and pd = 1: Cd = pd·E/π = 1; ambient radiance 0.1: Ca = 0.1.
         lights: vec![Light::Directional {

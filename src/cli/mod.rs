@@ -2,6 +2,7 @@
 //! library. One file per command group.
 
 mod args;
+mod choose;
 mod fit;
 mod inverse;
 mod io;
@@ -10,6 +11,7 @@ mod render;
 mod study;
 
 pub(crate) use args::*;
+pub(crate) use choose::*;
 pub(crate) use fit::*;
 pub(crate) use inverse::*;
 pub(crate) use io::*;
@@ -101,6 +103,12 @@ pub(crate) enum Command {
         #[arg(long, default_value_t = 256)]
         render_res: u32,
     },
+    /// Which model a scene needs: render the measurement itself and each model fitted where the
+    /// scene looks, and name the simplest whose image a viewer cannot tell apart.
+    #[command(
+        after_help = "Examples:\n  brdfit choose data/blinn-mgo.csv\n  brdfit choose data/merl-alumina-oxide.csv --scene fig7 --threshold delta_e_itp_p99=2 -o choose-alumina"
+    )]
+    Choose(ChooseArgs),
     /// Summarise a data file: format, samples, channels, quantity, angle coverage, value range.
     #[command(after_help = "Example:\n  brdfit info data/cayman.astm")]
     Info {
@@ -258,6 +266,7 @@ pub(crate) fn run(cli: Cli) -> Result<()> {
             res,
             quiet(),
         ),
+        Command::Choose(args) => run_choose(args),
         Command::Plot(cmd) => run_plot(cmd),
         Command::Study(cmd) => run_study(cmd),
         Command::Convert(args) => run_convert(args),

@@ -19,6 +19,8 @@
 //! - Bounding spheres for every object and a BVH for triangle meshes; rayon over rows; linear
 //!   f32 OpenEXR and 8-bit sRGB PNG output; deterministic.
 
+pub mod compare;
+pub mod measured;
 pub mod scene;
 
 use crate::model::{Distribution, Geometry, Model, ModelKind};
@@ -358,6 +360,28 @@ pub enum Light {
     },
 }
 
+impl Light {
+    /// Unit direction from `p` toward the light, its distance, and the irradiance it gives
+    /// a surface facing it at `p`.
+    #[inline]
+    pub fn toward(&self, p: DVec3) -> (DVec3, f64, DVec3) {
+        match self {
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                let v = *position - p;
+                let d2 = v.length_squared();
+                (v / d2.sqrt(), d2.sqrt(), *intensity / d2.max(1e-300))
+            }
+            Light::Directional {
+                direction,
+                irradiance,
+            } => (*direction, f64::INFINITY, *irradiance),
+        }
+    }
+}
+
 /// A checker texture on the diffuse colour: squares of side `size` in texture units.
 #[derive(Clone, Copy, Debug)]
 pub struct Checker {
@@ -419,6 +443,9 @@ pub struct Material {
     pub ior: f64,
     /// Optional roughness texture (torrance-sparrow D3 only).
     pub roughness: Option<RoughnessTexture>,
+    /// Optional measured BRDF: when set, the surface reflects by this table (times `color`)
+    /// instead of `model`, which then gives only the ambient term's pd.
+    pub measured: Option<std::sync::Arc<measured::Tabulated>>,
 }
 
 impl Material {
@@ -720,20 +747,7 @@ impl Scene {
         let pd = m.pd();
         let mut out = self.ambient * albedo * pd;
         for (li, light) in self.lights.iter().enumerate() {
-            let (ldir, dist, irr) = match light {
-                Light::Point {
-                    position,
-                    intensity,
-                } => {
-                    let v = *position - p;
-                    let d2 = v.length_squared();
-                    (v / d2.sqrt(), d2.sqrt(), *intensity / d2.max(1e-300))
-                }
-                Light::Directional {
-                    direction,
-                    irradiance,
-                } => (*direction, f64::INFINITY, *irradiance),
-            };
+            let (ldir, dist, irr) = light.toward(p);
             if n.dot(ldir) <= 0.0 || n.dot(e) <= 0.0 {
                 continue;
             }
@@ -749,6 +763,11 @@ impl Scene {
                 continue;
             }
             // A Lambert surface needs only N·L; the other models the whole geometry.
+            if let Some(t) = &m.measured {
+                let g = Geometry::from_vectors(n.to_array(), ldir.to_array(), e.to_array());
+                out += albedo * (t.brdf(&g) * g.nl) * irr;
+                continue;
+            }
             let (i_d, i_s) = if m.model.kind == ModelKind::Lambert {
                 (pd * n.dot(ldir), 0.0)
             } else {
@@ -795,6 +814,60 @@ impl Scene {
             }
         }
         out
+    }
+
+    /// The local light/eye configurations this scene shows of `material`: for each pixel
+    /// whose centre ray first hits an object of that material, and each light that reaches
+    /// the point unshadowed with light and eye above the surface, (θi, θo, φo − φi) in radians
+    /// (φo − φi ∈ [0, π]; 180° is the mirror direction). Also returns the object mask: the
+    /// pixels whose centre ray hits the material, lit or not. Primary rays only: a mirror or
+    /// refracted view of the object is not counted.
+    pub fn lit_configurations(&self, material: usize) -> (Vec<[f64; 3]>, Vec<bool>) {
+        let (w, h) = (self.camera.width, self.camera.height);
+        let cam = self.camera.frame();
+        let mut configs = Vec::new();
+        let mut mask = vec![false; (w as usize) * (h as usize)];
+        for y in 0..h {
+            for x in 0..w {
+                let r = cam.ray(x as f64 + 0.5, y as f64 + 0.5);
+                let Some((oi, t, n_out)) = self.intersect(&r, f64::INFINITY) else {
+                    continue;
+                };
+                if self.objects[oi].material != material {
+                    continue;
+                }
+                mask[(y * w + x) as usize] = true;
+                let p = r.o + t * r.d;
+                let n = if n_out.dot(r.d) > 0.0 { -n_out } else { n_out };
+                let e = -r.d;
+                let eps = 1e-7 * p.abs().max_element().max(1.0);
+                for light in &self.lights {
+                    let (l, dist, _) = light.toward(p);
+                    let (nl, ne) = (n.dot(l), n.dot(e));
+                    if nl <= 0.0 || ne <= 0.0 {
+                        continue;
+                    }
+                    if self.occluded(
+                        &Ray {
+                            o: p + eps * n,
+                            d: l,
+                        },
+                        dist - 2.0 * eps,
+                    ) {
+                        continue;
+                    }
+                    let (lt, et) = (l - nl * n, e - ne * n);
+                    let den = lt.length() * et.length();
+                    let dphi = if den > 1e-12 {
+                        (lt.dot(et) / den).clamp(-1.0, 1.0).acos()
+                    } else {
+                        0.0
+                    };
+                    configs.push([nl.min(1.0).acos(), ne.min(1.0).acos(), dphi]);
+                }
+            }
+        }
+        (configs, mask)
     }
 
     /// Radiance of the primary ray through (x, y): the uniform and no-anti-aliasing modes

@@ -389,6 +389,7 @@ fn material(name: &str, m: &MaterialSpec, dir: &Path) -> Result<Material> {
             cmin: r.cmin.clamp(1e-3, 1.0),
             frequency: r.frequency,
         }),
+        measured: None,
     })
 }
 
@@ -523,6 +524,7 @@ pub fn fig7_scene(model: Model, lighting: Lighting, res: u32) -> Scene {
             kt: 0.0,
             ior: 1.5,
             roughness: None,
+            measured: None,
         }],
         lights: vec![Light::Directional {
             direction,

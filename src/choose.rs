@@ -1,0 +1,920 @@
+//! The model a scene needs: render the measurement itself, fit each model where the scene
+//! looks, and choose the simplest whose image a viewer cannot tell from the measurement's.
+//!
+//! For each lighting case of a scene:
+//! 1. the measurement is resampled onto a half/difference table ([`Tabulated`]) and rendered
+//!    as the test object's material: the reference image;
+//! 2. the light/eye configurations of the object's lit pixels are collected
+//!    ([`Scene::lit_configurations`]), binned, and the measurement is looked up there, with the
+//!    pixel counts as weights: the scene-weighted samples;
+//! 3. every candidate model is fitted to those samples with the usual fitter (its loss and
+//!    verification), rendered, and compared with the reference by LDR-ꟻLIP, ΔE_ITP and RMSE
+//!    ([`crate::render::compare`]) over the object's pixels;
+//! 4. the chosen model is the simplest (fewest parameters, then the cheapest to render, in
+//!    [`RENDER_COST_ORDER`]) whose error stays within the threshold.
+//!
+//! Blinn's Figure 7 is the case this answers: front lit, Phong is enough for magnesium oxide;
+//! edge lit, it is not (Blinn 1977, §"Comparison of the models").
+
+use crate::data::Dataset;
+use crate::fit::{FitOptions, FitResult, fit};
+use crate::model::{Distribution, Model, ModelKind};
+use crate::render::compare::{self, Summary};
+use crate::render::measured::{Dims, Tabulated};
+use crate::render::scene::{Lighting, fig7_scene};
+use crate::render::{Image, Scene};
+use glam::DVec3;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// An error key of [`ModelRow`] that a threshold can test.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Metric {
+    /// Mean LDR-ꟻLIP over the whole image.
+    FlipMean,
+    /// 99th percentile of LDR-ꟻLIP over the object's pixels.
+    FlipP99,
+    /// Mean ΔE_ITP over the object's pixels.
+    DeltaEItpMean,
+    /// 99th percentile of ΔE_ITP over the object's pixels.
+    DeltaEItpP99,
+    /// RMSE of linear radiance over the object's pixels.
+    Rmse,
+}
+
+impl Metric {
+    /// Every metric, in the order of the JSON keys.
+    pub const ALL: [Metric; 5] = [
+        Metric::FlipMean,
+        Metric::FlipP99,
+        Metric::DeltaEItpMean,
+        Metric::DeltaEItpP99,
+        Metric::Rmse,
+    ];
+
+    /// The JSON key.
+    pub fn key(self) -> &'static str {
+        match self {
+            Metric::FlipMean => "flip_mean",
+            Metric::FlipP99 => "flip_p99",
+            Metric::DeltaEItpMean => "delta_e_itp_mean",
+            Metric::DeltaEItpP99 => "delta_e_itp_p99",
+            Metric::Rmse => "rmse",
+        }
+    }
+
+    /// The metric named by a JSON key.
+    pub fn from_key(key: &str) -> Option<Metric> {
+        Metric::ALL.into_iter().find(|m| m.key() == key)
+    }
+}
+
+/// The largest error a chosen model may have.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Threshold {
+    /// Which error.
+    pub metric: Metric,
+    /// Its largest admitted value.
+    pub value: f64,
+}
+
+/// The default threshold: the 99th percentile of LDR-ꟻLIP over the object at most 0.05.
+///
+/// Calibration (README, "Choosing a model for a scene"): 0.05 is where a uniform change of
+/// the measured rendering's radiance becomes visible: scaling it by 1.05 gives a ꟻLIP p99
+/// of about 0.04 and ΔE_ITP p99 near 2 (two just-noticeable differences) on the Figure 7
+/// spheres, while Phong fitted to the whole of Blinn's MgO data gives 0.2 front lit.
+pub const DEFAULT_THRESHOLD: Threshold = Threshold {
+    metric: Metric::FlipP99,
+    value: 0.05,
+};
+
+/// The level [`Summary::above`] counts ꟻLIP errors above (also shown in the error maps' bar).
+pub const FLIP_LEVEL: f64 = 0.05;
+
+/// Models of equal parameter count ordered by the time a render with them takes (measured by
+/// `benches/choose.rs`): the tie-break of the choice. A fixed order keeps the choice the same
+/// on every run, while measured times vary.
+pub const RENDER_COST_ORDER: [(ModelKind, Distribution); 7] = [
+    (ModelKind::Lambert, Distribution::D3),
+    (ModelKind::Phong, Distribution::D3),
+    (ModelKind::BlinnPhong, Distribution::D3),
+    (ModelKind::TorranceSparrow, Distribution::D1),
+    (ModelKind::TorranceSparrow, Distribution::D3),
+    (ModelKind::TorranceSparrow, Distribution::D2),
+    (ModelKind::GgxSmith, Distribution::D3),
+];
+
+/// Fill shares above this make the resampled measurement mostly a model: the reference is
+/// then the best global fit, and the case's `reference` says so.
+pub const MAX_FILL_SHARE: f64 = 0.5;
+
+/// The name of a candidate as `--model` spells it, with `-d1`/`-d2`/`-d3` for the models
+/// that take a facet distribution (`torrance-sparrow-d3`).
+pub fn model_name(kind: ModelKind, dist: Distribution) -> String {
+    if kind.has_distribution() {
+        format!("{}-{}", kind.name(), dist.name())
+    } else {
+        kind.name().to_string()
+    }
+}
+
+/// A named lighting case: a scene whose material 0 is the test object.
+#[derive(Clone, Debug)]
+pub struct Case {
+    /// Name (`front`, `edge`, or the scene file's stem).
+    pub name: String,
+    /// The scene.
+    pub scene: Scene,
+}
+
+/// The two lighting cases of Blinn's Figure 7 at `res`², lit by the light alone (no ambient
+/// term, so the images show only the BRDF under the light).
+pub fn fig7_cases(res: u32) -> Vec<Case> {
+    [("front", Lighting::Front), ("edge", Lighting::Edge)]
+        .into_iter()
+        .map(|(name, lighting)| {
+            let mut scene = fig7_scene(Model::blinn_mgo(), lighting, res);
+            scene.ambient = DVec3::ZERO;
+            Case {
+                name: name.into(),
+                scene,
+            }
+        })
+        .collect()
+}
+
+/// Options of [`choose`].
+#[derive(Clone, Debug)]
+pub struct ChooseOptions {
+    /// Candidate models, in the order rows are reported.
+    pub candidates: Vec<(ModelKind, Distribution)>,
+    /// The error a chosen model may have.
+    pub threshold: Threshold,
+    /// Random-start verification of every fit (see [`FitOptions::verify`]).
+    pub verify: usize,
+}
+
+impl Default for ChooseOptions {
+    fn default() -> Self {
+        ChooseOptions {
+            candidates: RENDER_COST_ORDER.to_vec(),
+            threshold: DEFAULT_THRESHOLD,
+            verify: 4,
+        }
+    }
+}
+
+/// One candidate in one case.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct ModelRow {
+    /// Model name as `--model` spells it (`torrance-sparrow-d3`).
+    pub model: String,
+    /// Facet distribution (`d3` for models without one).
+    pub distribution: Distribution,
+    /// Parameters of the scene-weighted fit.
+    #[serde(with = "ordered_map")]
+    pub params: Vec<(String, f64)>,
+    /// Parameters of the fit to all the data.
+    #[serde(with = "ordered_map")]
+    pub global_params: Vec<(String, f64)>,
+    /// BIC of the fit to all the data.
+    pub bic: f64,
+    /// Mean LDR-ꟻLIP over the whole image.
+    pub flip_mean: f64,
+    /// 99th percentile of LDR-ꟻLIP over the object.
+    pub flip_p99: f64,
+    /// Share of the object's pixels with ꟻLIP above [`FLIP_LEVEL`].
+    pub flip_above: f64,
+    /// Mean ΔE_ITP over the object.
+    pub delta_e_itp_mean: f64,
+    /// 99th percentile of ΔE_ITP over the object.
+    pub delta_e_itp_p99: f64,
+    /// RMSE of linear radiance over the object.
+    pub rmse: f64,
+    /// The same errors of the global fit's rendering: ꟻLIP p99 over the object.
+    pub global_flip_p99: f64,
+    /// Wall time of the scene-weighted fit (s).
+    pub fit_seconds: f64,
+    /// Wall time of the render (s).
+    pub render_seconds: f64,
+    /// Rays traced for the render.
+    pub rays: u64,
+    /// Whether the scene-weighted fit passed verification and its first-order check.
+    pub usable: bool,
+}
+
+impl ModelRow {
+    /// The value of an error key.
+    pub fn error(&self, m: Metric) -> f64 {
+        match m {
+            Metric::FlipMean => self.flip_mean,
+            Metric::FlipP99 => self.flip_p99,
+            Metric::DeltaEItpMean => self.delta_e_itp_mean,
+            Metric::DeltaEItpP99 => self.delta_e_itp_p99,
+            Metric::Rmse => self.rmse,
+        }
+    }
+
+    /// Number of parameters.
+    pub fn n_params(&self) -> usize {
+        self.params.len()
+    }
+}
+
+/// One lighting case's answer.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct CaseResult {
+    /// Case name.
+    pub case: String,
+    /// `measured`, or the model rendered as the reference when the measurement could not be.
+    pub reference: String,
+    /// The simplest model within the threshold; `None` when none is.
+    pub chosen: Option<String>,
+    /// The model with the lowest error under the threshold's metric.
+    pub closest: String,
+    /// Scene-weighted samples: distinct (θi, θo, Δφ) bins of the lit pixels.
+    pub configurations: usize,
+    /// Lit object pixels × lights they see.
+    pub lit_pixels: usize,
+    /// Wall time of the reference render (s).
+    pub reference_render_seconds: f64,
+    /// One row per candidate.
+    pub models: Vec<ModelRow>,
+}
+
+/// The whole answer, as written to `choose.json`.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct ChooseResult {
+    /// The threshold applied.
+    pub threshold: ThresholdJson,
+    /// Channel judged.
+    pub channel: String,
+    /// Table size of the resampled measurement.
+    pub table: Dims,
+    /// Share of table cells with no sample near, filled from the best global fit.
+    pub fill_share: f64,
+    /// The global fit that filled them.
+    pub fill_model: String,
+    /// Wall time of the resampling (s).
+    pub resample_seconds: f64,
+    /// One entry per lighting case.
+    pub cases: Vec<CaseResult>,
+}
+
+/// The threshold as `choose.json` writes it: `{"metric": "flip_p99", "value": 0.05}`.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct ThresholdJson {
+    /// Error key.
+    pub metric: String,
+    /// Largest admitted value.
+    pub value: f64,
+}
+
+/// Images of one case, for the files and the contact sheet.
+pub struct CaseImages {
+    /// Case name.
+    pub case: String,
+    /// (name, image, object mask): the reference first, then each candidate.
+    pub renders: Vec<(String, Image)>,
+    /// Per-candidate LDR-ꟻLIP maps (same order as `renders[1..]`).
+    pub flip_maps: Vec<Vec<f32>>,
+    /// Object mask.
+    pub mask: Vec<bool>,
+}
+
+mod ordered_map {
+    use serde::ser::SerializeMap;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &[(String, f64)], s: S) -> Result<S::Ok, S::Error> {
+        let mut m = s.serialize_map(Some(v.len()))?;
+        for (k, x) in v {
+            m.serialize_entry(k, x)?;
+        }
+        m.end()
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<(String, f64)>, D::Error> {
+        let m = serde_json::Map::<String, serde_json::Value>::deserialize(d)?;
+        Ok(m.into_iter()
+            .map(|(k, v)| (k, v.as_f64().unwrap_or(f64::NAN)))
+            .collect())
+    }
+}
+
+/// Bin width of scene-weighted configurations (radians): 1°.
+const BIN: f64 = std::f64::consts::PI / 180.0;
+
+/// The scene-weighted sample set: the configurations of `scene`'s lit pixels of `material`,
+/// binned to 1° in (θi, θo, Δφ) with the bins' pixel counts as weights, each bin at the
+/// mean of its configurations, valued by `brdf` (f_r there). Bins are in a fixed order.
+pub fn scene_samples(
+    scene: &Scene,
+    material: usize,
+    brdf: &dyn Fn(&crate::model::Geometry) -> f64,
+) -> (Dataset, Vec<bool>, usize) {
+    let (configs, mask) = scene.lit_configurations(material);
+    let mut bins: std::collections::BTreeMap<[i64; 3], ([f64; 3], f64)> = Default::default();
+    for c in &configs {
+        let key = c.map(|a| (a / BIN).floor() as i64);
+        let e = bins.entry(key).or_insert(([0.0; 3], 0.0));
+        for k in 0..3 {
+            e.0[k] += c[k];
+        }
+        e.1 += 1.0;
+    }
+    let mut ds = Dataset::new(crate::data::Quantity::Brdf, vec![("scene".into(), None)]);
+    let mut weights = Vec::with_capacity(bins.len());
+    for (sum, count) in bins.values() {
+        let a = sum.map(|s| s / count);
+        let g = crate::model::Geometry::from_angles(a[0], 0.0, a[1], a[2]);
+        let y = brdf(&g);
+        if !(y > 0.0) || !y.is_finite() {
+            continue;
+        }
+        ds.push([a[0], 0.0, a[1], a[2]], &[y]);
+        weights.push(*count);
+    }
+    ds.weights = Some(weights);
+    ds.meta.source = "scene-weighted samples".into();
+    (ds, mask, configs.len())
+}
+
+/// Fit one candidate with the usual fitter; the fitted model and the result.
+fn fit_one(
+    ds: &Dataset,
+    kind: ModelKind,
+    dist: Distribution,
+    verify: usize,
+) -> Result<FitResult, crate::fit::FitError> {
+    let mut o = FitOptions::new(kind);
+    o.dist = dist;
+    o.verify = verify;
+    o.profile = false;
+    Ok(fit(ds, &o)?.remove(0))
+}
+
+fn render_with(scene: &Scene, material: crate::render::Material) -> (Image, f64) {
+    let mut s = scene.clone();
+    s.materials[0] = material;
+    let t = Instant::now();
+    let img = s.render(&|| {});
+    (img, t.elapsed().as_secs_f64())
+}
+
+fn errors(reference: &Image, test: &Image, mask: &[bool]) -> (Summary, Vec<f32>, Summary, f64) {
+    let flip = compare::flip(
+        &crate::render::to_srgb8(reference),
+        &crate::render::to_srgb8(test),
+        reference.width,
+        reference.height,
+    );
+    let de = compare::delta_e_itp_map(&reference.pixels, &test.pixels);
+    let f = compare::summarise(&flip, mask, FLIP_LEVEL);
+    let d = compare::summarise(&de, mask, 1.0);
+    (
+        f,
+        flip,
+        d,
+        compare::rmse(&reference.pixels, &test.pixels, mask),
+    )
+}
+
+/// Which rows pass, and the choice: the simplest passing row (fewest parameters, then
+/// [`RENDER_COST_ORDER`]); and the closest row (lowest error on the threshold's metric).
+pub fn pick(rows: &[ModelRow], threshold: Threshold) -> (Option<usize>, usize) {
+    let rank = |r: &ModelRow| {
+        let pos = RENDER_COST_ORDER
+            .iter()
+            .position(|&(k, d)| model_name(k, d) == r.model)
+            .unwrap_or(usize::MAX);
+        (r.n_params(), pos)
+    };
+    let chosen = (0..rows.len())
+        .filter(|&i| rows[i].usable && rows[i].error(threshold.metric) <= threshold.value)
+        .min_by_key(|&i| rank(&rows[i]));
+    let closest = (0..rows.len())
+        .min_by(|&a, &b| {
+            rows[a]
+                .error(threshold.metric)
+                .total_cmp(&rows[b].error(threshold.metric))
+        })
+        .unwrap_or(0);
+    (chosen, closest)
+}
+
+/// Run the choice for a single-channel data set over `cases`. Returns the answer and each
+/// case's images. `progress` receives one line per step.
+pub fn choose(
+    ds: &Dataset,
+    cases: &[Case],
+    opts: &ChooseOptions,
+    progress: &dyn Fn(&str),
+) -> Result<(ChooseResult, Vec<CaseImages>), crate::fit::FitError> {
+    // Global fits: the comparison the report already makes, and the fill of empty cells.
+    let mut global = Vec::new();
+    for &(kind, dist) in &opts.candidates {
+        global.push(fit_one(ds, kind, dist, opts.verify)?);
+    }
+    let best = (0..global.len())
+        .filter(|&i| global[i].usable())
+        .min_by(|&a, &b| global[a].bic.total_cmp(&global[b].bic))
+        .unwrap_or(0);
+    let fill_model = global[best].model_for(0);
+    let t = Instant::now();
+    let dims = Dims::for_samples(ds.len());
+    let table = Arc::new(Tabulated::resample(ds, dims, fill_model));
+    let resample_seconds = t.elapsed().as_secs_f64();
+    let fill_share = table.fill_share();
+    let fill_name = model_name(global[best].model, global[best].dist);
+    progress(&format!(
+        "resampled {} samples onto a {}×{}×{} table in {:.2} s; {:.1} % of cells filled from {}",
+        ds.len(),
+        dims.0[0],
+        dims.0[1],
+        dims.0[2],
+        resample_seconds,
+        100.0 * fill_share,
+        fill_name
+    ));
+    let measured = fill_share <= MAX_FILL_SHARE;
+    let reference_name = if measured {
+        "measured".to_string()
+    } else {
+        fill_name.clone()
+    };
+    let mut results = Vec::new();
+    let mut images = Vec::new();
+    for case in cases {
+        let base = case.scene.materials[0].clone();
+        let material = |model: Model, table: Option<Arc<Tabulated>>| crate::render::Material {
+            model,
+            measured: table,
+            ..base.clone()
+        };
+        let reference_material = if measured {
+            material(fill_model, Some(table.clone()))
+        } else {
+            material(fill_model, None)
+        };
+        let (reference, reference_seconds) = render_with(&case.scene, reference_material);
+        let lookup = |g: &crate::model::Geometry| {
+            if measured {
+                table.brdf(g)
+            } else {
+                fill_model.brdf(g)
+            }
+        };
+        let (samples, mask, lit) = scene_samples(&case.scene, 0, &lookup);
+        progress(&format!(
+            "{}: {} lit pixels in {} configurations; reference rendered in {:.2} s",
+            case.name,
+            lit,
+            samples.len(),
+            reference_seconds
+        ));
+        let mut rows = Vec::new();
+        let mut renders = vec![(reference_name.clone(), reference.clone())];
+        let mut flip_maps = Vec::new();
+        for (k, &(kind, dist)) in opts.candidates.iter().enumerate() {
+            let t = Instant::now();
+            let (model, params, usable) = if samples.is_empty() {
+                // Nothing lit: the global fit stands in (every model renders black there).
+                let g = &global[k];
+                (g.model_for(0), g.params.clone(), g.usable())
+            } else {
+                let r = fit_one(&samples, kind, dist, opts.verify)?;
+                (r.model_for(0), r.params.clone(), r.usable())
+            };
+            let fit_seconds = t.elapsed().as_secs_f64();
+            let (img, render_seconds) = render_with(&case.scene, material(model, None));
+            let (f, fmap, d, rmse) = errors(&reference, &img, &mask);
+            let (global_img, _) = render_with(&case.scene, material(global[k].model_for(0), None));
+            let (gf, _, _, _) = errors(&reference, &global_img, &mask);
+            let name = model_name(kind, dist);
+            progress(&format!(
+                "{}: {name}: ꟻLIP p99 {:.3} (global fit {:.3}), ΔE_ITP p99 {:.2}",
+                case.name, f.p99, gf.p99, d.p99
+            ));
+            rows.push(ModelRow {
+                model: name.clone(),
+                distribution: dist,
+                params,
+                global_params: global[k].params.clone(),
+                bic: global[k].bic,
+                flip_mean: compare::summarise(&fmap, &[], FLIP_LEVEL).mean,
+                flip_p99: f.p99,
+                flip_above: f.above,
+                delta_e_itp_mean: d.mean,
+                delta_e_itp_p99: d.p99,
+                rmse,
+                global_flip_p99: gf.p99,
+                fit_seconds,
+                render_seconds,
+                rays: img.total_rays(),
+                usable,
+            });
+            renders.push((name, img));
+            flip_maps.push(fmap);
+        }
+        let (chosen, closest) = pick(&rows, opts.threshold);
+        results.push(CaseResult {
+            case: case.name.clone(),
+            reference: reference_name.clone(),
+            chosen: chosen.map(|i| rows[i].model.clone()),
+            closest: rows[closest].model.clone(),
+            configurations: samples.len(),
+            lit_pixels: lit,
+            reference_render_seconds: reference_seconds,
+            models: rows,
+        });
+        images.push(CaseImages {
+            case: case.name.clone(),
+            renders,
+            flip_maps,
+            mask,
+        });
+    }
+    Ok((
+        ChooseResult {
+            threshold: ThresholdJson {
+                metric: opts.threshold.metric.key().into(),
+                value: opts.threshold.value,
+            },
+            channel: ds
+                .channels
+                .first()
+                .map(|c| c.name.clone())
+                .unwrap_or_default(),
+            table: dims,
+            fill_share,
+            fill_model: fill_name,
+            resample_seconds,
+            cases: results,
+        },
+        images,
+    ))
+}
+
+/// Write each case's renders (`DIR/<case>/measured.{exr,png}` and `DIR/<case>/<model>.{exr,png}`,
+/// one exposure), its contact sheet (`sheet.png`) and chart (`chart.{svg,png}`), then
+/// `DIR/choose.json` and `DIR/choose.md`; returns the paths written, in order.
+pub fn write(
+    dir: &std::path::Path,
+    result: &ChooseResult,
+    images: &[CaseImages],
+) -> anyhow::Result<Vec<std::path::PathBuf>> {
+    use crate::output::write_bytes_atomic;
+    let mut wrote = Vec::new();
+    for (case, imgs) in result.cases.iter().zip(images) {
+        let sub = dir.join(&case.case);
+        std::fs::create_dir_all(&sub)?;
+        for (k, (name, img)) in imgs.renders.iter().enumerate() {
+            let base = sub.join(if k == 0 { "measured" } else { name.as_str() });
+            crate::render::save(img, &base)?;
+            wrote.push(base.with_extension("exr"));
+            wrote.push(base.with_extension("png"));
+        }
+        let sheet = sub.join("sheet.png");
+        write_bytes_atomic(&sheet, &contact_sheet(case, imgs, &result.threshold)?)?;
+        wrote.push(sheet);
+        let (svg, png) = crate::plot::save(
+            &TradeoffChart {
+                case: case.clone(),
+                threshold: result.threshold.clone(),
+            },
+            &sub.join("chart"),
+        )?;
+        wrote.push(svg);
+        wrote.push(png);
+    }
+    let json = dir.join("choose.json");
+    let mut text = serde_json::to_string_pretty(result)?;
+    text.push('\n');
+    write_bytes_atomic(&json, text.as_bytes())?;
+    wrote.push(json);
+    let md = dir.join("choose.md");
+    write_bytes_atomic(&md, markdown(result).as_bytes())?;
+    wrote.push(md);
+    Ok(wrote)
+}
+
+/// The answer as Markdown: per case, the choice and one row per model.
+pub fn markdown(r: &ChooseResult) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "Channel {}; measurement resampled onto a {}×{}×{} half/difference table, {:.1} % of cells \
+         filled from the {} fit. Threshold: {} ≤ {}.\n",
+        r.channel,
+        r.table.0[0],
+        r.table.0[1],
+        r.table.0[2],
+        100.0 * r.fill_share,
+        r.fill_model,
+        r.threshold.metric,
+        r.threshold.value
+    );
+    for c in &r.cases {
+        let answer = match &c.chosen {
+            Some(m) => format!("**{m}** is enough"),
+            None => format!(
+                "no model is within the threshold; the closest is **{}**",
+                c.closest
+            ),
+        };
+        let _ = writeln!(
+            s,
+            "### {} lit: {answer}\n\nReference: {}; {} lit pixels in {} scene-weighted \
+             configurations.\n",
+            c.case, c.reference, c.lit_pixels, c.configurations
+        );
+        let _ = writeln!(
+            s,
+            "| model | parameters (scene-weighted fit) | BIC (all data) | ꟻLIP mean | ꟻLIP p99 | \
+             ꟻLIP p99, global fit | ΔE_ITP mean | ΔE_ITP p99 | RMSE | fit s | render s | rays |\n\
+             |---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+        );
+        for m in &c.models {
+            let params: Vec<String> = m
+                .params
+                .iter()
+                .map(|(k, v)| format!("{k} {}", crate::model::readable(*v)))
+                .collect();
+            let mark = if c.chosen.as_deref() == Some(&m.model) {
+                " ✔"
+            } else {
+                ""
+            };
+            let _ = writeln!(
+                s,
+                "| {}{mark}{} | {} | {:.0} | {:.4} | {:.4} | {:.4} | {:.3} | {:.3} | {:.4} | {:.3} | {:.3} | {} |",
+                m.model,
+                if m.usable { "" } else { " (not usable)" },
+                params.join(", "),
+                m.bic,
+                m.flip_mean,
+                m.flip_p99,
+                m.global_flip_p99,
+                m.delta_e_itp_mean,
+                m.delta_e_itp_p99,
+                m.rmse,
+                m.fit_seconds,
+                m.render_seconds,
+                m.rays
+            );
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// Magma colour of an error in [0, 1] (NVIDIA ꟻLIP's map).
+fn magma(lut: &[u8], e: f32) -> [u8; 3] {
+    let i = ((e.clamp(0.0, 1.0) * 255.0).round() as usize).min(255);
+    [lut[3 * i], lut[3 * i + 1], lut[3 * i + 2]]
+}
+
+/// The contact sheet of a case: the reference and each model's render in the top row, each
+/// model's ꟻLIP map (magma, 0–1) below it, labelled with its 99th percentile over the
+/// object, and a colour bar.
+fn contact_sheet(
+    case: &CaseResult,
+    imgs: &CaseImages,
+    th: &ThresholdJson,
+) -> anyhow::Result<Vec<u8>> {
+    use plotters::prelude::*;
+    let tile = 200u32;
+    let gap = 10u32;
+    let cols = imgs.renders.len() as u32;
+    let (top, label_h) = (56u32, 40u32);
+    let bar_h = 70u32;
+    let w = gap + cols * (tile + gap);
+    let h = top + 2 * (tile + label_h) + bar_h;
+    let mut buf = vec![255u8; (w * h * 3) as usize];
+    let lut = nv_flip::magma_lut().to_vec();
+    let put = |buf: &mut Vec<u8>, x: u32, y: u32, c: [u8; 3]| {
+        let o = ((y * w + x) * 3) as usize;
+        buf[o..o + 3].copy_from_slice(&c);
+    };
+    let srgb: Vec<Vec<u8>> = imgs
+        .renders
+        .iter()
+        .map(|(_, i)| crate::render::to_srgb8(i))
+        .collect();
+    let (iw, ih) = (imgs.renders[0].1.width, imgs.renders[0].1.height);
+    // Nearest-pixel resampling onto the tile: the sheet shows the pixels the metrics saw.
+    for y in 0..tile {
+        for x in 0..tile {
+            let (sx, sy) = (x * iw / tile, y * ih / tile);
+            let i = (sy * iw + sx) as usize;
+            for c in 0..cols {
+                let x0 = gap + c * (tile + gap);
+                let s = &srgb[c as usize];
+                put(
+                    &mut buf,
+                    x0 + x,
+                    top + y,
+                    [s[3 * i], s[3 * i + 1], s[3 * i + 2]],
+                );
+                if c > 0 {
+                    let e = imgs.flip_maps[c as usize - 1][i];
+                    put(&mut buf, x0 + x, top + tile + label_h + y, magma(&lut, e));
+                }
+            }
+        }
+    }
+    let bar_y = top + 2 * (tile + label_h) + 8;
+    let bar_w = (w - 2 * gap).min(600);
+    for x in 0..bar_w {
+        let c = magma(&lut, x as f32 / (bar_w - 1) as f32);
+        for y in 0..16 {
+            put(&mut buf, gap + x, bar_y + y, c);
+        }
+    }
+    {
+        crate::plot::register_font_once();
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        let e = |r: Result<(), DrawingAreaErrorKind<_>>| {
+            r.map_err(|e| anyhow::anyhow!("drawing failed: {e:?}"))
+        };
+        let text = |s: String, x: u32, y: u32, size: f64| {
+            root.draw(&Text::new(
+                s,
+                (x as i32, y as i32),
+                ("sans-serif", size).into_font(),
+            ))
+        };
+        let answer = match &case.chosen {
+            Some(m) => format!("{m} is enough"),
+            None => format!("no model within the threshold; closest: {}", case.closest),
+        };
+        e(text(
+            format!("{} lit: {answer} ({} ≤ {})", case.case, th.metric, th.value),
+            gap,
+            10,
+            18.0,
+        ))?;
+        for c in 0..cols {
+            let x0 = gap + c * (tile + gap);
+            let name = if c == 0 {
+                format!("reference ({})", case.reference)
+            } else {
+                imgs.renders[c as usize].0.clone()
+            };
+            e(text(name, x0, top - 20, 14.0))?;
+            if c > 0 {
+                let m = &case.models[c as usize - 1];
+                let mark = if case.chosen.as_deref() == Some(&m.model) {
+                    "  chosen"
+                } else {
+                    ""
+                };
+                e(text(
+                    format!("ꟻLIP p99 {:.3}{mark}", m.flip_p99),
+                    x0,
+                    top + tile + 6,
+                    13.0,
+                ))?;
+                e(text(
+                    format!("ΔE_ITP p99 {:.2}", m.delta_e_itp_p99),
+                    x0,
+                    top + tile + 22,
+                    13.0,
+                ))?;
+            }
+        }
+        e(text(
+            "ꟻLIP error maps (second row), magma scale:".into(),
+            gap,
+            top + 2 * tile + label_h + 14,
+            13.0,
+        ))?;
+        for k in 0..=4 {
+            let v = k as f64 / 4.0;
+            e(text(
+                format!("{v:.2}"),
+                gap + (v * (bar_w - 1) as f64) as u32,
+                bar_y + 22,
+                13.0,
+            ))?;
+        }
+        root.present()
+            .map_err(|e| anyhow::anyhow!("drawing failed: {e:?}"))?;
+    }
+    crate::plot::encode_png(w, h, &buf)
+}
+
+/// Image error against fit + render time, one labelled point per model, the chosen one
+/// ringed, the threshold as a line: speed against accuracy in the image.
+struct TradeoffChart {
+    case: CaseResult,
+    threshold: ThresholdJson,
+}
+
+impl crate::plot::Chart for TradeoffChart {
+    fn size(&self) -> (u32, u32) {
+        (800, 500)
+    }
+
+    fn draw<DB: plotters::prelude::DrawingBackend>(
+        &self,
+        root: &plotters::prelude::DrawingArea<DB, plotters::coord::Shift>,
+    ) -> anyhow::Result<()> {
+        use plotters::prelude::*;
+        let err = |e: &dyn std::fmt::Debug| anyhow::anyhow!("drawing failed: {e:?}");
+        let metric = Metric::from_key(&self.threshold.metric).unwrap_or(Metric::FlipP99);
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let pts: Vec<(f64, f64, &ModelRow)> = self
+            .case
+            .models
+            .iter()
+            .map(|m| {
+                (
+                    (m.fit_seconds + m.render_seconds).max(1e-4),
+                    m.error(metric),
+                    m,
+                )
+            })
+            .collect();
+        let (mut x0, mut x1) = (f64::INFINITY, 0.0f64);
+        let mut y1 = self.threshold.value;
+        for &(x, y, _) in &pts {
+            x0 = x0.min(x);
+            x1 = x1.max(x);
+            y1 = y1.max(y);
+        }
+        let (lx0, lx1) = (x0.log10() - 0.15, x1.log10() + 0.35);
+        let mut chart = ChartBuilder::on(root)
+            .caption(
+                format!(
+                    "{} lit: image error against fit + render time",
+                    self.case.case
+                ),
+                ("sans-serif", 18),
+            )
+            .margin(14)
+            .x_label_area_size(46)
+            .y_label_area_size(64)
+            .build_cartesian_2d(lx0..lx1, 0.0..y1 * 1.12)
+            .map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc("fit + render time (s, log scale)")
+            .y_desc(metric.key())
+            .x_label_formatter(&|v| crate::model::readable(10f64.powf(*v)))
+            .label_style(("sans-serif", 13))
+            .axis_desc_style(("sans-serif", 14))
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()
+            .map_err(|e| err(&e))?;
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                vec![(lx0, self.threshold.value), (lx1, self.threshold.value)],
+                RGBColor(200, 0, 0).stroke_width(1),
+            )))
+            .map_err(|e| err(&e))?;
+        chart
+            .draw_series(std::iter::once(Text::new(
+                format!("threshold {}", self.threshold.value),
+                (lx0 + 0.02, self.threshold.value + 0.02 * y1),
+                ("sans-serif", 13).into_font().color(&RGBColor(200, 0, 0)),
+            )))
+            .map_err(|e| err(&e))?;
+        for &(x, y, m) in &pts {
+            let chosen = self.case.chosen.as_deref() == Some(&m.model);
+            let colour = if y <= self.threshold.value {
+                RGBColor(0, 120, 60)
+            } else {
+                RGBColor(60, 60, 60)
+            };
+            chart
+                .draw_series(std::iter::once(Circle::new(
+                    (x.log10(), y),
+                    4,
+                    colour.filled(),
+                )))
+                .map_err(|e| err(&e))?;
+            if chosen {
+                chart
+                    .draw_series(std::iter::once(Circle::new(
+                        (x.log10(), y),
+                        9,
+                        RGBColor(200, 0, 0).stroke_width(2),
+                    )))
+                    .map_err(|e| err(&e))?;
+            }
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    format!("{}{}", m.model, if chosen { " (chosen)" } else { "" }),
+                    (x.log10() + 0.03, y),
+                    ("sans-serif", 13).into_font().color(&colour),
+                )))
+                .map_err(|e| err(&e))?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,108 @@
+//! `brdfit choose`: the simplest model whose rendered image a viewer cannot tell from the
+//! measurement's, for each lighting case of a scene.
+
+use super::*;
+use anyhow::{Result, anyhow, bail};
+use brdfit::choose::{self, Metric, Threshold};
+
+/// Arguments of `brdfit choose`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct ChooseArgs {
+    /// The measurement (.csv, .astm, .brdf or MERL .binary); one channel is judged (the
+    /// green channel of RGB data, CIE Y of spectral data, or --channel).
+    pub(crate) data: PathBuf,
+    /// `fig7` for Blinn's Figure 7 lighting cases (front lit, edge lit), or a scene TOML whose
+    /// first material is the test object.
+    #[arg(long, default_value = "fig7")]
+    pub(crate) scene: String,
+    /// METRIC=VALUE: the largest error a chosen model may have; METRIC is one of flip_mean,
+    /// flip_p99, delta_e_itp_mean, delta_e_itp_p99, rmse.
+    #[arg(long, default_value = "flip_p99=0.05")]
+    pub(crate) threshold: String,
+    /// Output directory (created; its choose files are replaced).
+    #[arg(short, long, default_value = "choose")]
+    pub(crate) output: PathBuf,
+    /// Image resolution (square) of the fig7 cases.
+    #[arg(long, default_value_t = 512)]
+    pub(crate) res: u32,
+    /// Random starts that must not beat each fit (0 = none).
+    #[arg(long, default_value_t = 4)]
+    pub(crate) verify: usize,
+    #[command(flatten)]
+    pub(crate) load: LoadArgs,
+}
+
+fn parse_threshold(s: &str) -> Result<Threshold> {
+    let keys: Vec<&str> = Metric::ALL.iter().map(|m| m.key()).collect();
+    let (k, v) = s.split_once('=').ok_or_else(|| {
+        anyhow!("--threshold {s}: expected METRIC=VALUE\n  fix: e.g. --threshold flip_p99=0.05")
+    })?;
+    let metric = Metric::from_key(k.trim()).ok_or_else(|| {
+        anyhow!(
+            "--threshold: unknown metric {k}\n  fix: use one of {}",
+            keys.join(", ")
+        )
+    })?;
+    let value: f64 = v
+        .trim()
+        .parse()
+        .ok()
+        .filter(|x: &f64| x.is_finite() && *x >= 0.0)
+        .ok_or_else(|| {
+            anyhow!("--threshold: {v} is not a value ≥ 0\n  fix: e.g. --threshold {k}=0.05")
+        })?;
+    Ok(Threshold { metric, value })
+}
+
+pub(crate) fn run_choose(a: ChooseArgs) -> Result<()> {
+    let threshold = parse_threshold(&a.threshold)?;
+    if !(16..=4096).contains(&a.res) {
+        bail!(
+            "--res {} is out of range\n  fix: give a resolution between 16 and 4096",
+            a.res
+        );
+    }
+    let ds = study_input(&a.data, &a.load)?;
+    let cases = if a.scene == "fig7" {
+        choose::fig7_cases(a.res)
+    } else {
+        let path = Path::new(&a.scene);
+        let scene = brdfit::render::scene::load_scene(path)?;
+        if scene.materials.is_empty() {
+            bail!(
+                "{}: the scene has no material\n  fix: give it a [[material]] for the test object",
+                path.display()
+            );
+        }
+        let name = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "scene".into());
+        vec![choose::Case { name, scene }]
+    };
+    let quiet = quiet();
+    let t = std::time::Instant::now();
+    let (result, images) = choose::choose(
+        &ds,
+        &cases,
+        &choose::ChooseOptions {
+            threshold,
+            verify: a.verify,
+            ..Default::default()
+        },
+        &|line| {
+            if !quiet {
+                eprintln!("{line}");
+            }
+        },
+    )?;
+    let wrote = choose::write(&a.output, &result, &images)?;
+    print(&choose::markdown(&result))?;
+    if !quiet {
+        for p in &wrote {
+            eprintln!("wrote {}", p.display());
+        }
+        eprintln!("done in {:.1} s", t.elapsed().as_secs_f64());
+    }
+    Ok(())
+}

@@ -1,0 +1,150 @@
+//! Image error: how far a rendering is from a reference, per pixel and over an object.
+//!
+//! - ꟻLIP (Andersson et al. 2020, "FLIP: A Difference Evaluator for Alternating Images"), LDR
+//!   version, through NVIDIA's implementation (the `nv-flip` crate), on 8-bit sRGB images
+//!   as written to PNG, at [`PIXELS_PER_DEGREE`].
+//! - ΔE_ITP (ITU-R BT.2124-0, 2019), on linear BT.709 images shown on a display whose white
+//!   (linear 1.0) is [`DISPLAY_WHITE_NITS`]; 1 is about one just-noticeable difference.
+//! - RMSE of linear radiance.
+
+/// ꟻLIP's viewing condition: 0.7 m from a 0.7 m wide 4K monitor, NVIDIA's default (≈ 67).
+pub const PIXELS_PER_DEGREE: f32 = nv_flip::DEFAULT_PIXELS_PER_DEGREE;
+
+/// Luminance (cd/m²) of linear 1.0 on the display assumed by ΔE_ITP: an SDR reference
+/// white (ITU-R BT.2035 uses 100 cd/m²). Values above 1 are clipped as a display clips them.
+pub const DISPLAY_WHITE_NITS: f64 = 100.0;
+
+/// Per-pixel LDR-ꟻLIP error in [0, 1] between two 8-bit sRGB images (RGB, row-major).
+pub fn flip(reference: &[u8], test: &[u8], width: u32, height: u32) -> Vec<f32> {
+    let r = nv_flip::FlipImageRgb8::with_data(width, height, reference);
+    let t = nv_flip::FlipImageRgb8::with_data(width, height, test);
+    nv_flip::flip(r, t, PIXELS_PER_DEGREE).to_vec()
+}
+
+/// SMPTE ST 2084 (PQ) inverse EOTF of an absolute luminance in cd/m², as BT.2100 gives it.
+pub fn pq(nits: f64) -> f64 {
+    const M1: f64 = 2610.0 / 16384.0;
+    const M2: f64 = 2523.0 / 4096.0 * 128.0;
+    const C1: f64 = 3424.0 / 4096.0;
+    const C2: f64 = 2413.0 / 4096.0 * 32.0;
+    const C3: f64 = 2392.0 / 4096.0 * 32.0;
+    let y = (nits / 10_000.0).max(0.0).powf(M1);
+    ((C1 + C2 * y) / (1.0 + C3 * y)).powf(M2)
+}
+
+/// (I, T, P) of a linear BT.709 colour shown at [`DISPLAY_WHITE_NITS`]: BT.709 → BT.2020
+/// (BT.2087), BT.2020 → LMS and ICtCp (BT.2100), T = Ct / 2 (BT.2124).
+pub fn itp(rgb709: [f64; 3]) -> [f64; 3] {
+    let c = rgb709.map(|v| v.clamp(0.0, 1.0) * DISPLAY_WHITE_NITS);
+    let r = 0.6274 * c[0] + 0.3293 * c[1] + 0.0433 * c[2];
+    let g = 0.0691 * c[0] + 0.9195 * c[1] + 0.0114 * c[2];
+    let b = 0.0164 * c[0] + 0.0880 * c[1] + 0.8956 * c[2];
+    let l = pq((1688.0 * r + 2146.0 * g + 262.0 * b) / 4096.0);
+    let m = pq((683.0 * r + 2951.0 * g + 462.0 * b) / 4096.0);
+    let s = pq((99.0 * r + 309.0 * g + 3688.0 * b) / 4096.0);
+    [
+        0.5 * l + 0.5 * m,
+        0.5 * (6610.0 * l - 13613.0 * m + 7003.0 * s) / 4096.0,
+        (17933.0 * l - 17390.0 * m - 543.0 * s) / 4096.0,
+    ]
+}
+
+/// ΔE_ITP = 720 √(ΔI² + ΔT² + ΔP²) (BT.2124) between two linear BT.709 colours.
+pub fn delta_e_itp(a: [f64; 3], b: [f64; 3]) -> f64 {
+    let (p, q) = (itp(a), itp(b));
+    720.0 * ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
+}
+
+/// Per-pixel ΔE_ITP between two linear images of equal size.
+pub fn delta_e_itp_map(reference: &[[f32; 3]], test: &[[f32; 3]]) -> Vec<f32> {
+    reference
+        .iter()
+        .zip(test)
+        .map(|(a, b)| delta_e_itp(a.map(f64::from), b.map(f64::from)) as f32)
+        .collect()
+}
+
+/// Mean, 99th percentile and the share above `level` of `map` over the pixels where `mask`
+/// is true (all pixels when `mask` is empty).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Summary {
+    /// Mean.
+    pub mean: f64,
+    /// 99th percentile (nearest rank).
+    pub p99: f64,
+    /// Share of pixels above the level.
+    pub above: f64,
+}
+
+/// [`Summary`] of an error map over a mask.
+pub fn summarise(map: &[f32], mask: &[bool], level: f64) -> Summary {
+    let mut v: Vec<f64> = map
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| mask.is_empty() || mask[*i])
+        .map(|(_, &e)| e as f64)
+        .collect();
+    if v.is_empty() {
+        return Summary {
+            mean: 0.0,
+            p99: 0.0,
+            above: 0.0,
+        };
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    let rank = ((0.99 * n as f64).ceil() as usize).clamp(1, n);
+    Summary {
+        mean: v.iter().sum::<f64>() / n as f64,
+        p99: v[rank - 1],
+        above: v.iter().filter(|&&e| e > level).count() as f64 / n as f64,
+    }
+}
+
+/// RMSE of linear radiance (all three channels) over the pixels where `mask` is true.
+pub fn rmse(reference: &[[f32; 3]], test: &[[f32; 3]], mask: &[bool]) -> f64 {
+    let (mut s, mut n) = (0.0, 0usize);
+    for (i, (a, b)) in reference.iter().zip(test).enumerate() {
+        if mask.is_empty() || mask[i] {
+            s += (0..3).map(|k| ((a[k] - b[k]) as f64).powi(2)).sum::<f64>();
+            n += 3;
+        }
+    }
+    (s / n.max(1) as f64).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Hand-worked from BT.2100 and BT.2124: a grey has L = M = S (the BT.2087 and LMS rows
+    /// each sum to 1), so Ct = Cp = 0 (their coefficients sum to 0) and ΔE_ITP = 720 |ΔI| with
+    /// I = PQ(Y). PQ(10,000 cd/m²) = ((c1 + c2)/(1 + c3))^m2 = 1 exactly, since c1 + c2 = 1 + c3;
+    /// PQ(0) = c1^m2 = (3424/4096)^78.84375 = 7.309e-7.
+    #[test]
+    fn delta_e_itp_of_greys_by_hand() {
+        assert!((pq(10_000.0) - 1.0).abs() < 1e-12);
+        let pq0 = (3424.0f64 / 4096.0).powf(78.84375);
+        assert!((pq0 - 7.309e-7).abs() < 1e-9, "{pq0}");
+        assert!((pq(0.0) - pq0).abs() < 1e-15);
+        // BT.2100 Table 4's example: 100 cd/m² encodes to PQ ≈ 0.5081.
+        assert!((pq(100.0) - 0.5081).abs() < 1e-4, "{}", pq(100.0));
+        // Black against white at 100 cd/m²: 720 (PQ(100) − PQ(0)).
+        let d = delta_e_itp([0.0; 3], [1.0; 3]);
+        assert!((d - 720.0 * (0.508_078 - pq0)).abs() < 1e-3, "{d}");
+        assert_eq!(delta_e_itp([0.3; 3], [0.3; 3]), 0.0);
+        // Symmetric.
+        let (a, b) = ([0.2, 0.5, 0.1], [0.25, 0.4, 0.3]);
+        assert_eq!(delta_e_itp(a, b), delta_e_itp(b, a));
+    }
+
+    #[test]
+    fn summary_over_a_mask() {
+        let map: Vec<f32> = (0..200).map(|i| i as f32 / 100.0).collect();
+        let mask: Vec<bool> = (0..200).map(|i| i >= 100).collect();
+        let s = summarise(&map, &mask, 1.5);
+        assert!((s.mean - 1.495).abs() < 1e-9);
+        assert!((s.p99 - 1.98).abs() < 1e-6, "{s:?}");
+        assert!((s.above - 0.49).abs() < 1e-9);
+    }
+}

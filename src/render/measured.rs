@@ -1,0 +1,252 @@
+//! A measurement as a material: f_r on a regular half/difference-angle table.
+//!
+//! The table is indexed by Rusinkiewicz's (1998) half/difference angles (θh, θd, φd), as MERL's
+//! tables are (Matusik et al. 2003): θh on MERL's square-root scale (u = √(θh / 90°), so the
+//! narrow highlight near θh = 0 gets most cells), θd linear over [0°, 90°], and φd folded onto
+//! [0°, 90°] by reciprocity (φd ~ φd + 180°) and isotropy (φd ~ −φd). Lookups interpolate
+//! trilinearly between cell centres.
+//!
+//! Samples (CSV, ASTM, Cornell, RGL, or a MERL table's cells) are resampled onto the table
+//! once, as residuals from a model (the best fit): each cell takes the inverse-distance-weighted
+//! mean (Shepard 1968) of the residuals f_data − f_model of the samples within 1.5 cells of its
+//! centre, in index units. A lookup is f_model at the exact configuration plus the residual
+//! interpolated trilinearly, so the model carries the shape between samples (a sharp highlight
+//! is not smeared over a cell) while the samples set the values: at a sample's cell centre the
+//! lookup returns the sample. A cell with no sample that near is marked and takes residual 0
+//! (the model), and the share of such cells is reported.
+
+use crate::data::Dataset;
+use crate::model::{Geometry, Model};
+use std::f64::consts::FRAC_PI_2;
+
+/// Table size: cells in θh (square-root scale), θd, and folded φd.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Dims(pub [usize; 3]);
+
+impl Dims {
+    /// MERL's resolution, with φd folded onto [0°, 90°] (90 × 90 × 90).
+    pub const MERL: Dims = Dims([90, 90, 90]);
+
+    /// A size for `samples` scattered samples: about two samples a cell, n × n × n/2 with n in
+    /// [8, 90]; the full MERL size for a whole MERL table.
+    pub fn for_samples(samples: usize) -> Dims {
+        if samples >= 1_000_000 {
+            return Dims::MERL;
+        }
+        let n = ((samples as f64 / 2.0).cbrt().round() as usize).clamp(8, 90);
+        Dims([n, n, (n / 2).max(4)])
+    }
+
+    fn cells(self) -> usize {
+        self.0.iter().product()
+    }
+}
+
+/// Continuous table coordinates in [0, 1]³ of one light/eye configuration: √(θh/90°),
+/// θd/90°, folded φd/90°. From the cosines alone: cos θh = N·H, cos θd = L·H, and
+/// N·L = cos θh cos θd − sin θh sin θd cos φd gives |cos φd|.
+#[inline]
+pub fn coordinates(g: &Geometry) -> [f64; 3] {
+    let th = g.nh.clamp(-1.0, 1.0).acos();
+    let td = g.eh.clamp(-1.0, 1.0).acos();
+    let (sh, sd) = (th.sin(), td.sin());
+    let den = sh * sd;
+    let cos_pd = if den > 1e-12 {
+        ((g.nh * g.eh - g.nl) / den).abs().min(1.0)
+    } else {
+        1.0
+    };
+    [
+        (th / FRAC_PI_2).sqrt().min(1.0),
+        (td / FRAC_PI_2).min(1.0),
+        cos_pd.acos() / FRAC_PI_2,
+    ]
+}
+
+/// A measured BRDF (one channel) on a half/difference table, ready for rendering.
+#[derive(Clone, Debug)]
+pub struct Tabulated {
+    /// Table size.
+    pub dims: Dims,
+    /// Residual f_data − f_fill at each cell centre, φd fastest, then θd, then θh.
+    values: Vec<f32>,
+    /// Cells with no sample near enough (residual 0: the model).
+    filled: Vec<bool>,
+    /// The model the residuals are taken from, and which fills the empty cells.
+    pub fill: Model,
+}
+
+impl Tabulated {
+    /// Resample the first channel of `ds` onto a table of size `dims`, as residuals from
+    /// `fill`, which also fills the cells with no sample within 1.5 cells.
+    pub fn resample(ds: &Dataset, dims: Dims, fill: Model) -> Tabulated {
+        let [nh, nd, np] = dims.0;
+        let n = [nh as f64, nd as f64, np as f64];
+        let values = ds.channels.first().map(|c| &c.values[..]).unwrap_or(&[]);
+        // Sample positions in index units, and cell lists (counting sort, so no allocation
+        // per cell and the order within a cell is the file's order: deterministic).
+        let mut pos = Vec::with_capacity(ds.len());
+        let mut val = Vec::with_capacity(ds.len());
+        for k in 0..ds.len().min(values.len()) {
+            let g = Geometry::from_angles(ds.theta_i[k], ds.phi_i[k], ds.theta_o[k], ds.phi_o[k]);
+            let y = values[k] * ds.quantity.to_brdf_factor(g.nl);
+            if !g.visible() || !y.is_finite() {
+                continue;
+            }
+            let c = coordinates(&g);
+            pos.push([c[0] * n[0], c[1] * n[1], c[2] * n[2]]);
+            val.push(y - fill.brdf(&g));
+        }
+        let cell_of = |p: &[f64; 3]| {
+            let i = |a: f64, m: usize| (a as usize).min(m - 1);
+            (i(p[0], nh) * nd + i(p[1], nd)) * np + i(p[2], np)
+        };
+        let mut start = vec![0usize; dims.cells() + 1];
+        for p in &pos {
+            start[cell_of(p) + 1] += 1;
+        }
+        for c in 0..dims.cells() {
+            start[c + 1] += start[c];
+        }
+        let mut next = start.clone();
+        let mut order = vec![0usize; pos.len()];
+        for (k, p) in pos.iter().enumerate() {
+            let c = cell_of(p);
+            order[next[c]] = k;
+            next[c] += 1;
+        }
+        const RADIUS2: f64 = 1.5 * 1.5;
+        let mut out = vec![0f32; dims.cells()];
+        let mut filled = vec![false; dims.cells()];
+        for ih in 0..nh {
+            for id in 0..nd {
+                for ip in 0..np {
+                    let centre = [ih as f64 + 0.5, id as f64 + 0.5, ip as f64 + 0.5];
+                    let (mut sw, mut sy) = (0.0, 0.0);
+                    for jh in ih.saturating_sub(1)..(ih + 2).min(nh) {
+                        for jd in id.saturating_sub(1)..(id + 2).min(nd) {
+                            for jp in ip.saturating_sub(1)..(ip + 2).min(np) {
+                                let c = (jh * nd + jd) * np + jp;
+                                for &k in &order[start[c]..start[c + 1]] {
+                                    let d2: f64 =
+                                        (0..3).map(|a| (pos[k][a] - centre[a]).powi(2)).sum();
+                                    if d2 <= RADIUS2 {
+                                        let w = 1.0 / (d2 + 1e-9);
+                                        sw += w;
+                                        sy += w * val[k];
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    let cell = (ih * nd + id) * np + ip;
+                    if sw > 0.0 {
+                        out[cell] = (sy / sw) as f32;
+                    } else {
+                        filled[cell] = true;
+                    }
+                }
+            }
+        }
+        Tabulated {
+            dims,
+            values: out,
+            filled,
+            fill,
+        }
+    }
+
+    /// Share of cells filled from the model (no sample within 1.5 cells).
+    pub fn fill_share(&self) -> f64 {
+        self.filled.iter().filter(|&&f| f).count() as f64 / self.filled.len().max(1) as f64
+    }
+
+    /// f_r at a configuration: the model there plus the residual interpolated trilinearly
+    /// between cell centres, at least 0 (0 where light or eye is below the surface).
+    #[inline]
+    pub fn brdf(&self, g: &Geometry) -> f64 {
+        if !g.visible() {
+            return 0.0;
+        }
+        let c = coordinates(g);
+        let [nh, nd, np] = self.dims.0;
+        let axis = |u: f64, m: usize| {
+            let x = (u * m as f64 - 0.5).clamp(0.0, (m - 1) as f64);
+            let i = (x as usize).min(m.saturating_sub(2));
+            (i, (i + 1).min(m - 1), x - i as f64)
+        };
+        let (h0, h1, fh) = axis(c[0], nh);
+        let (d0, d1, fd) = axis(c[1], nd);
+        let (p0, p1, fp) = axis(c[2], np);
+        let at = |h: usize, d: usize, p: usize| self.values[(h * nd + d) * np + p] as f64;
+        let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+        let plane = |h: usize| {
+            lerp(
+                lerp(at(h, d0, p0), at(h, d0, p1), fp),
+                lerp(at(h, d1, p0), at(h, d1, p1), fp),
+                fd,
+            )
+        };
+        (self.fill.brdf(g) + lerp(plane(h0), plane(h1), fh)).max(0.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{Distribution, ModelKind};
+
+    /// The geometry at a cell centre given in index units.
+    fn centre_geometry(dims: Dims, centre: [f64; 3]) -> Geometry {
+        let [nh, nd, np] = dims.0;
+        let u = centre[0] / nh as f64;
+        let th = u * u * FRAC_PI_2;
+        let td = centre[1] / nd as f64 * FRAC_PI_2;
+        let pd = centre[2] / np as f64 * FRAC_PI_2;
+        let a = crate::data::merl::half_diff_to_std(th, 0.0, td, pd);
+        Geometry::from_angles(a[0], a[1], a[2], a[3])
+    }
+
+    /// The coordinates from cosines agree with MERL's rotation-based half/difference angles.
+    #[test]
+    fn coordinates_match_rotations() {
+        for &(ti, to, dphi) in &[
+            (0.3, 0.9, 2.0),
+            (1.2, 0.4, 0.5),
+            (0.7, 0.7, 3.0),
+            (1.4, 1.3, 1.0),
+        ] {
+            let g = Geometry::from_angles(ti, 0.0, to, dphi);
+            let [th, _, td, pd] = crate::data::merl::std_to_half_diff([ti, 0.0, to, dphi]);
+            let mut p = pd.rem_euclid(std::f64::consts::PI);
+            if p > FRAC_PI_2 {
+                p = std::f64::consts::PI - p;
+            }
+            let c = coordinates(&g);
+            assert!((c[0] - (th / FRAC_PI_2).sqrt()).abs() < 1e-9, "{c:?} {th}");
+            assert!((c[1] - td / FRAC_PI_2).abs() < 1e-9);
+            assert!((c[2] - p / FRAC_PI_2).abs() < 1e-7, "{c:?} {p}");
+        }
+    }
+
+    /// A table filled entirely from a model returns that model at the cell centres and close
+    /// to it between them.
+    #[test]
+    fn empty_table_is_the_fill_model() {
+        let m = Model::new(
+            ModelKind::TorranceSparrow,
+            Distribution::D3,
+            &[1.8, 0.35, 0.667, 0.333],
+        )
+        .unwrap();
+        let ds = Dataset::new(crate::data::Quantity::Brdf, vec![("v".into(), None)]);
+        let t = Tabulated::resample(&ds, Dims([32, 32, 16]), m);
+        assert_eq!(t.fill_share(), 1.0);
+        for g in [
+            centre_geometry(t.dims, [10.5, 5.5, 3.5]),
+            Geometry::from_angles(0.5, 0.0, 0.6, 2.9),
+        ] {
+            assert!((t.brdf(&g) - m.brdf(&g)).abs() < 1e-12);
+        }
+    }
+}
