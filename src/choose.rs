@@ -81,10 +81,11 @@ pub struct Threshold {
 
 /// The default threshold: the 99th percentile of LDR-ꟻLIP over the object at most 0.05.
 ///
-/// Calibration (README, "Choosing a model for a scene"): 0.05 is where a uniform change of
-/// the measured rendering's radiance becomes visible: scaling it by 1.05 gives a ꟻLIP p99
-/// of about 0.04 and ΔE_ITP p99 near 2 (two just-noticeable differences) on the Figure 7
-/// spheres, while Phong fitted to the whole of Blinn's MgO data gives 0.2 front lit.
+/// Calibration (README, "Choosing a model for a scene"): on the front-lit Figure 7 sphere at
+/// 512², scaling the whole image's radiance by 1.02, about the Weber fraction of luminance
+/// discrimination, gives a ꟻLIP p99 of 0.049 and a ΔE_ITP p99 of 1.3 (one just-noticeable
+/// difference is about 1); by 1.05 it gives 0.082 and 3.3. So 0.05 admits a model whose worst
+/// percent of the object differs no more than a barely visible 2 % change of exposure.
 pub const DEFAULT_THRESHOLD: Threshold = Threshold {
     metric: Metric::FlipP99,
     value: 0.05,
@@ -238,6 +239,9 @@ pub struct CaseResult {
     pub configurations: usize,
     /// Lit object pixels × lights they see.
     pub lit_pixels: usize,
+    /// Share of those (pixel-weighted) whose configuration falls in a measured table cell;
+    /// the rest show the fill model.
+    pub measured_share: f64,
     /// Wall time of the reference render (s).
     pub reference_render_seconds: f64,
     /// One row per candidate.
@@ -468,11 +472,32 @@ pub fn choose(
             }
         };
         let (samples, mask, lit) = scene_samples(&case.scene, 0, &lookup);
+        let measured_share = if measured {
+            let w = samples.weights.as_deref().unwrap_or(&[]);
+            let (mut inside, mut all) = (0.0, 0.0);
+            for k in 0..samples.len() {
+                let g = crate::model::Geometry::from_angles(
+                    samples.theta_i[k],
+                    samples.phi_i[k],
+                    samples.theta_o[k],
+                    samples.phi_o[k],
+                );
+                all += w[k];
+                if table.is_measured(&g) {
+                    inside += w[k];
+                }
+            }
+            inside / all.max(1.0)
+        } else {
+            0.0
+        };
         progress(&format!(
-            "{}: {} lit pixels in {} configurations; reference rendered in {:.2} s",
+            "{}: {} lit pixels in {} configurations, {:.0} % of them in measured cells; \
+             reference rendered in {:.2} s",
             case.name,
             lit,
             samples.len(),
+            100.0 * measured_share,
             reference_seconds
         ));
         let mut rows = Vec::new();
@@ -527,6 +552,7 @@ pub fn choose(
             closest: rows[closest].model.clone(),
             configurations: samples.len(),
             lit_pixels: lit,
+            measured_share,
             reference_render_seconds: reference_seconds,
             models: rows,
         });
@@ -629,8 +655,13 @@ pub fn markdown(r: &ChooseResult) -> String {
         let _ = writeln!(
             s,
             "### {} lit: {answer}\n\nReference: {}; {} lit pixels in {} scene-weighted \
-             configurations.\n",
-            c.case, c.reference, c.lit_pixels, c.configurations
+             configurations, {:.0} % of them where the table holds measured samples (the rest \
+             show the fill model).\n",
+            c.case,
+            c.reference,
+            c.lit_pixels,
+            c.configurations,
+            100.0 * c.measured_share
         );
         let _ = writeln!(
             s,
@@ -847,7 +878,9 @@ impl crate::plot::Chart for TradeoffChart {
             x1 = x1.max(x);
             y1 = y1.max(y);
         }
-        let (lx0, lx1) = (x0.log10() - 0.15, x1.log10() + 0.35);
+        let lx1 = x1 * 2.2;
+        // At least a decade, so the log axis has labelled ticks.
+        let lx0 = (x0 / 1.4).min(lx1 / 12.0);
         let mut chart = ChartBuilder::on(root)
             .caption(
                 format!(
@@ -859,13 +892,13 @@ impl crate::plot::Chart for TradeoffChart {
             .margin(14)
             .x_label_area_size(46)
             .y_label_area_size(64)
-            .build_cartesian_2d(lx0..lx1, 0.0..y1 * 1.12)
+            .build_cartesian_2d((lx0..lx1).log_scale(), 0.0..y1 * 1.12)
             .map_err(|e| err(&e))?;
         chart
             .configure_mesh()
             .x_desc("fit + render time (s, log scale)")
             .y_desc(metric.key())
-            .x_label_formatter(&|v| crate::model::readable(10f64.powf(*v)))
+            .x_label_formatter(&|v| crate::model::readable(*v))
             .label_style(("sans-serif", 13))
             .axis_desc_style(("sans-serif", 14))
             .light_line_style(RGBColor(235, 235, 235))
@@ -880,11 +913,16 @@ impl crate::plot::Chart for TradeoffChart {
         chart
             .draw_series(std::iter::once(Text::new(
                 format!("threshold {}", self.threshold.value),
-                (lx0 + 0.02, self.threshold.value + 0.02 * y1),
+                (lx0 * 1.05, self.threshold.value + 0.02 * y1),
                 ("sans-serif", 13).into_font().color(&RGBColor(200, 0, 0)),
             )))
             .map_err(|e| err(&e))?;
-        for &(x, y, m) in &pts {
+        // Points first, then direct labels placed greedily so none overlaps another.
+        let mut placed: Vec<(i32, i32, i32, i32)> = Vec::new();
+        let mut order: Vec<usize> = (0..pts.len()).collect();
+        order.sort_by(|&a, &b| pts[b].1.total_cmp(&pts[a].1));
+        for k in order {
+            let (x, y, m) = pts[k];
             let chosen = self.case.chosen.as_deref() == Some(&m.model);
             let colour = if y <= self.threshold.value {
                 RGBColor(0, 120, 60)
@@ -892,28 +930,35 @@ impl crate::plot::Chart for TradeoffChart {
                 RGBColor(60, 60, 60)
             };
             chart
-                .draw_series(std::iter::once(Circle::new(
-                    (x.log10(), y),
-                    4,
-                    colour.filled(),
-                )))
+                .draw_series(std::iter::once(Circle::new((x, y), 4, colour.filled())))
                 .map_err(|e| err(&e))?;
             if chosen {
                 chart
                     .draw_series(std::iter::once(Circle::new(
-                        (x.log10(), y),
+                        (x, y),
                         9,
                         RGBColor(200, 0, 0).stroke_width(2),
                     )))
                     .map_err(|e| err(&e))?;
             }
-            chart
-                .draw_series(std::iter::once(Text::new(
-                    format!("{}{}", m.model, if chosen { " (chosen)" } else { "" }),
-                    (x.log10() + 0.03, y),
-                    ("sans-serif", 13).into_font().color(&colour),
-                )))
-                .map_err(|e| err(&e))?;
+            let label = format!("{}{}", m.model, if chosen { " (chosen)" } else { "" });
+            let (px, py) = chart.backend_coord(&(x, y));
+            let (w, h) = (7 * label.chars().count() as i32, 16);
+            let mut top = py - h / 2;
+            let left = px + 12;
+            while placed
+                .iter()
+                .any(|&(l, t, r, b)| left < r && left + w > l && top < b && top + h > t)
+            {
+                top += h;
+            }
+            placed.push((left, top, left + w, top + h));
+            root.draw(&Text::new(
+                label,
+                (left, top),
+                ("sans-serif", 13).into_font().color(&colour),
+            ))
+            .map_err(|e| err(&e))?;
         }
         Ok(())
     }

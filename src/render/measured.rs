@@ -161,6 +161,14 @@ impl Tabulated {
         self.filled.iter().filter(|&&f| f).count() as f64 / self.filled.len().max(1) as f64
     }
 
+    /// True when the cell nearest to a configuration holds measured samples (not the fill).
+    pub fn is_measured(&self, g: &Geometry) -> bool {
+        let c = coordinates(g);
+        let [nh, nd, np] = self.dims.0;
+        let i = |u: f64, m: usize| ((u * m as f64) as usize).min(m - 1);
+        !self.filled[(i(c[0], nh) * nd + i(c[1], nd)) * np + i(c[2], np)]
+    }
+
     /// f_r at a configuration: the model there plus the residual interpolated trilinearly
     /// between cell centres, at least 0 (0 where light or eye is below the surface).
     #[inline]
