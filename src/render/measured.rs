@@ -72,6 +72,8 @@ pub struct Tabulated {
     values: Vec<f32>,
     /// Cells with no sample near enough (residual 0: the model).
     filled: Vec<bool>,
+    /// Cells whose centre has light or eye below the horizon: no sample can fall there.
+    outside: Vec<bool>,
     /// The model the residuals are taken from, and which fills the empty cells.
     pub fill: Model,
 }
@@ -118,6 +120,7 @@ impl Tabulated {
         const RADIUS2: f64 = 1.5 * 1.5;
         let mut out = vec![0f32; dims.cells()];
         let mut filled = vec![false; dims.cells()];
+        let mut outside = vec![false; dims.cells()];
         for ih in 0..nh {
             for id in 0..nd {
                 for ip in 0..np {
@@ -140,6 +143,7 @@ impl Tabulated {
                         }
                     }
                     let cell = (ih * nd + id) * np + ip;
+                    outside[cell] = !centre_geometry(dims, centre).visible();
                     if sw > 0.0 {
                         out[cell] = (sy / sw) as f32;
                     } else {
@@ -152,13 +156,19 @@ impl Tabulated {
             dims,
             values: out,
             filled,
+            outside,
             fill,
         }
     }
 
-    /// Share of cells filled from the model (no sample within 1.5 cells).
+    /// Share of the table's physical cells (centre with light and eye above the horizon)
+    /// filled from the model, having no sample within 1.5 cells.
     pub fn fill_share(&self) -> f64 {
-        self.filled.iter().filter(|&&f| f).count() as f64 / self.filled.len().max(1) as f64
+        let inside = self.outside.iter().filter(|&&o| !o).count();
+        let filled = (0..self.filled.len())
+            .filter(|&c| self.filled[c] && !self.outside[c])
+            .count();
+        filled as f64 / inside.max(1) as f64
     }
 
     /// True when the cell nearest to a configuration holds measured samples (not the fill).
@@ -199,21 +209,21 @@ impl Tabulated {
     }
 }
 
+/// The geometry at a cell centre given in index units.
+fn centre_geometry(dims: Dims, centre: [f64; 3]) -> Geometry {
+    let [nh, nd, np] = dims.0;
+    let u = centre[0] / nh as f64;
+    let th = u * u * FRAC_PI_2;
+    let td = centre[1] / nd as f64 * FRAC_PI_2;
+    let pd = centre[2] / np as f64 * FRAC_PI_2;
+    let a = crate::data::merl::half_diff_to_std(th, 0.0, td, pd);
+    Geometry::from_angles(a[0], a[1], a[2], a[3])
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::model::{Distribution, ModelKind};
-
-    /// The geometry at a cell centre given in index units.
-    fn centre_geometry(dims: Dims, centre: [f64; 3]) -> Geometry {
-        let [nh, nd, np] = dims.0;
-        let u = centre[0] / nh as f64;
-        let th = u * u * FRAC_PI_2;
-        let td = centre[1] / nd as f64 * FRAC_PI_2;
-        let pd = centre[2] / np as f64 * FRAC_PI_2;
-        let a = crate::data::merl::half_diff_to_std(th, 0.0, td, pd);
-        Geometry::from_angles(a[0], a[1], a[2], a[3])
-    }
 
     /// The coordinates from cosines agree with MERL's rotation-based half/difference angles.
     #[test]
@@ -250,6 +260,7 @@ mod tests {
         let ds = Dataset::new(crate::data::Quantity::Brdf, vec![("v".into(), None)]);
         let t = Tabulated::resample(&ds, Dims([32, 32, 16]), m);
         assert_eq!(t.fill_share(), 1.0);
+        assert!(t.outside.iter().any(|&o| o) && t.outside.iter().any(|&o| !o));
         for g in [
             centre_geometry(t.dims, [10.5, 5.5, 3.5]),
             Geometry::from_angles(0.5, 0.0, 0.6, 2.9),
