@@ -665,42 +665,51 @@ pub fn markdown(r: &ChooseResult) -> String {
             c.configurations,
             100.0 * c.measured_share
         );
+        s.push_str(&case_table(c));
+        s.push('\n');
+    }
+    s
+}
+
+/// One case's rows as a Markdown table (model, parameters, BIC, image errors, times, rays);
+/// the chosen row is marked ✔.
+pub fn case_table(c: &CaseResult) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| model | parameters (scene-weighted fit) | BIC (all data) | ꟻLIP mean | ꟻLIP p99 | \
+         ꟻLIP p99, global fit | ΔE_ITP mean | ΔE_ITP p99 | RMSE | fit s | render s | rays |\n\
+         |---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+    );
+    for m in &c.models {
+        let params: Vec<String> = m
+            .params
+            .iter()
+            .map(|(k, v)| format!("{k} {}", crate::model::readable(*v)))
+            .collect();
+        let mark = if c.chosen.as_deref() == Some(&m.model) {
+            " ✔"
+        } else {
+            ""
+        };
         let _ = writeln!(
             s,
-            "| model | parameters (scene-weighted fit) | BIC (all data) | ꟻLIP mean | ꟻLIP p99 | \
-             ꟻLIP p99, global fit | ΔE_ITP mean | ΔE_ITP p99 | RMSE | fit s | render s | rays |\n\
-             |---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+            "| {}{mark}{} | {} | {:.0} | {:.4} | {:.4} | {:.4} | {:.3} | {:.3} | {:.4} | {:.3} | {:.3} | {} |",
+            m.model,
+            if m.usable { "" } else { " (not usable)" },
+            params.join(", "),
+            m.bic,
+            m.flip_mean,
+            m.flip_p99,
+            m.global_flip_p99,
+            m.delta_e_itp_mean,
+            m.delta_e_itp_p99,
+            m.rmse,
+            m.fit_seconds,
+            m.render_seconds,
+            m.rays
         );
-        for m in &c.models {
-            let params: Vec<String> = m
-                .params
-                .iter()
-                .map(|(k, v)| format!("{k} {}", crate::model::readable(*v)))
-                .collect();
-            let mark = if c.chosen.as_deref() == Some(&m.model) {
-                " ✔"
-            } else {
-                ""
-            };
-            let _ = writeln!(
-                s,
-                "| {}{mark}{} | {} | {:.0} | {:.4} | {:.4} | {:.4} | {:.3} | {:.3} | {:.4} | {:.3} | {:.3} | {} |",
-                m.model,
-                if m.usable { "" } else { " (not usable)" },
-                params.join(", "),
-                m.bic,
-                m.flip_mean,
-                m.flip_p99,
-                m.global_flip_p99,
-                m.delta_e_itp_mean,
-                m.delta_e_itp_p99,
-                m.rmse,
-                m.fit_seconds,
-                m.render_seconds,
-                m.rays
-            );
-        }
-        s.push('\n');
     }
     s
 }

@@ -137,6 +137,20 @@ fn is_synthetic(ds: &Dataset) -> bool {
 }
 
 /// Run the whole report for `files`.
+/// What one data set's section needs from the steps before it.
+struct DataSet<'a> {
+    /// File stem: the section's id and its folder under the report root.
+    name: String,
+    /// Single-channel samples the fits use.
+    ds: Dataset,
+    /// The report root.
+    root: &'a Path,
+    /// The report options.
+    opts: &'a ReportOptions,
+}
+
+/// Write the report for `files` into `opts.out`: index.html, report.md, results.json,
+/// timings.json, and one folder per data set. The steps are the functions below, in order.
 pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
     let root = &opts.out;
     std::fs::create_dir_all(root).with_context(|| format!("creating {}", root.display()))?;
@@ -145,15 +159,64 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
     let mut results = Vec::new();
     let mut timings = serde_json::Map::new();
     let mut toc = Vec::new();
-    let say = |m: &str| {
-        if opts.verbose {
-            eprintln!("report: {m}");
-        }
-    };
-
-    // Blinn's figures first.
-    doc.h(2, "Blinn 1977, Figures 5–7", "blinn");
     let t = Instant::now();
+    blinn_figures(&mut doc, root, opts)?;
+    timings.insert("blinn_figures".into(), json!(t.elapsed().as_secs_f64()));
+    for file in files {
+        let t0 = Instant::now();
+        let name = file
+            .file_stem()
+            .map_or("data".into(), |s| s.to_string_lossy().into_owned());
+        say(opts, &format!("{name}: loading"));
+        let full = data::load(file, &LoadOptions::default())?;
+        let (ds, channel_note) = data::representative_channel(&full).map_err(anyhow::Error::msg)?;
+        toc.push((name.clone(), name.clone()));
+        doc.h(2, &format!("{name} ({})", file.display()), &name);
+        doc.pre(&data::summary(&full));
+        doc.p(&format!("Fits use {channel_note}."));
+        let set = DataSet {
+            name: name.clone(),
+            ds,
+            root,
+            opts,
+        };
+        let mut tm = serde_json::Map::new();
+        say(opts, &format!("{name}: fitting"));
+        let (fits, rec, recommended) = model_comparison(&mut doc, &set, file, &mut tm)?;
+        let ts_i = ts_index(&fits);
+        parameters(&mut doc, &set, &fits, ts_i, rec)?;
+        results.push(json!({ "file": file.display().to_string(), "channel": channel_note, "recommended": recommended, "fits": fits.iter().map(fit_json).collect::<Vec<_>>() }));
+        say(opts, &format!("{name}: plots"));
+        let t = Instant::now();
+        plots(&mut doc, &set, &fits, ts_i, rec)?;
+        tm.insert("plots".into(), json!(t.elapsed().as_secs_f64()));
+        say(opts, &format!("{name}: renders"));
+        let t = Instant::now();
+        renders(&mut doc, &set, &fits[ts_i])?;
+        tm.insert("renders".into(), json!(t.elapsed().as_secs_f64()));
+        say(opts, &format!("{name}: what each scene needs"));
+        let t = Instant::now();
+        scene_needs(&mut doc, &set)?;
+        tm.insert("choose".into(), json!(t.elapsed().as_secs_f64()));
+        say(opts, &format!("{name}: studies"));
+        let t = Instant::now();
+        studies(&mut doc, &set, &fits[ts_i], &mut tm)?;
+        tm.insert("studies".into(), json!(t.elapsed().as_secs_f64()));
+        tm.insert("total".into(), json!(t0.elapsed().as_secs_f64()));
+        timings.insert(name.clone(), Value::Object(tm));
+    }
+    assemble(root, &doc, &toc, results, timings, t_all)
+}
+
+fn say(opts: &ReportOptions, m: &str) {
+    if opts.verbose {
+        eprintln!("report: {m}");
+    }
+}
+
+/// Blinn 1977, Figures 5–7, with his parameters.
+fn blinn_figures(doc: &mut Doc, root: &Path, opts: &ReportOptions) -> Result<()> {
+    doc.h(2, "Blinn 1977, Figures 5–7", "blinn");
     let (p5, s5) = save_chart(&plot::blinn_figure(30.0, 5), root, "blinn/figure5")?;
     let (p6, s6) = save_chart(&plot::blinn_figure(70.0, 6), root, "blinn/figure6")?;
     doc.p("Phong ((N·H)^c1, c1 = 50) against Torrance–Sparrow (D3 with the same half-angle β, n 1.8, ps .667, pd .333); Phong's ps matches the Torrance–Sparrow highlight at normal incidence. At 30° the two are nearly identical; at 70° the Torrance–Sparrow bump is far larger and points off-specular, toward grazing.");
@@ -177,303 +240,393 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
         None,
         "Figure 7: aluminium and MgO, front and edge lit, Phong and Torrance–Sparrow",
     );
-    timings.insert("blinn_figures".into(), json!(t.elapsed().as_secs_f64()));
 
-    for file in files {
-        let t0 = Instant::now();
-        let name = file
-            .file_stem()
-            .map_or("data".into(), |s| s.to_string_lossy().into_owned());
-        say(&format!("{name}: loading"));
-        let full = data::load(file, &LoadOptions::default())?;
-        let (ds, channel_note) = data::representative_channel(&full).map_err(anyhow::Error::msg)?;
-        let dir = name.clone();
-        toc.push((name.clone(), name.clone()));
-        doc.h(2, &format!("{name} ({})", file.display()), &name);
-        doc.pre(&data::summary(&full));
-        doc.p(&format!("Fits use {channel_note}."));
-        let mut tm = serde_json::Map::new();
+    Ok(())
+}
 
-        // Model comparison.
-        say(&format!("{name}: fitting"));
-        let fits: Vec<FitResult> = fit::all_models()
-            .into_iter()
-            .map(|(k, d)| {
-                let mut o = FitOptions::new(k);
-                o.dist = d;
-                o.verify = REPORT_VERIFY;
-                fit::fit(&ds, &o).map(|mut v| v.remove(0))
-            })
-            .collect::<std::result::Result<_, _>>()
-            .with_context(|| format!("fitting {}", file.display()))?;
-        tm.insert(
-            "fits".into(),
-            json!(fits.iter().map(|f| f.seconds).sum::<f64>()),
-        );
-        let (order, rec) = fit::rank(&fits);
-        doc.h(3, "Model comparison", &format!("{name}-models"));
-        let best_bic = fits[order[0]].bic;
-        let rows: Vec<Vec<String>> = order
+/// Fit every model (verified), rank them and write the comparison; returns the fits, the
+/// index shown as recommended (Torrance–Sparrow when none is usable) and its label.
+fn model_comparison(
+    doc: &mut Doc,
+    set: &DataSet,
+    file: &Path,
+    tm: &mut serde_json::Map<String, Value>,
+) -> Result<(Vec<FitResult>, usize, Option<String>)> {
+    let (ds, name) = (&set.ds, &set.name);
+    let fits: Vec<FitResult> = fit::all_models()
+        .into_iter()
+        .map(|(k, d)| {
+            let mut o = FitOptions::new(k);
+            o.dist = d;
+            o.verify = REPORT_VERIFY;
+            fit::fit(ds, &o).map(|mut v| v.remove(0))
+        })
+        .collect::<std::result::Result<_, _>>()
+        .with_context(|| format!("fitting {}", file.display()))?;
+    tm.insert(
+        "fits".into(),
+        json!(fits.iter().map(|f| f.seconds).sum::<f64>()),
+    );
+    let (order, rec) = fit::rank(&fits);
+    doc.h(3, "Model comparison", &format!("{name}-models"));
+    let best_bic = fits[order[0]].bic;
+    let rows: Vec<Vec<String>> = order
+        .iter()
+        .map(|&i| {
+            let f = &fits[i];
+            vec![
+                f.label(),
+                f.n_free.to_string(),
+                format!("{:.6e}", f.cost),
+                format!("{:.1}", f.aic),
+                format!("{:.1}", f.bic),
+                if f.usable() {
+                    format!("{:.1}", f.bic - best_bic)
+                } else {
+                    "—".into()
+                },
+                if Some(i) == rec {
+                    "← simplest the data support".into()
+                } else if !f.usable() {
+                    format!("not usable: {}", f.unusable.join("; "))
+                } else {
+                    String::new()
+                },
+            ]
+        })
+        .collect();
+    doc.table(&["model", "k", "cost", "AIC", "BIC", "ΔBIC", ""], &rows);
+    doc.p(&format!(
+    "Every fit was checked by {REPORT_VERIFY} seeded random starts (`brdfit fit --verify {REPORT_VERIFY}`): {}.",
+    if fits.iter().all(|f| f.verification.as_ref().is_some_and(|v| v.verified)) {
+        "none ended lower than the fit shown".to_string()
+    } else {
+        "a fit that one of them beats is marked not usable".to_string()
+    }
+));
+    let recommended = rec.map(|r| fits[r].label());
+    let rec = match rec {
+        Some(r) => {
+            doc.p(&format!(
+                "Recommended: {} — the model with the fewest parameters within 2 BIC of the best.",
+                fits[r].label()
+            ));
+            r
+        }
+        None => {
+            doc.p("No fit is usable, so no model is recommended; the Torrance–Sparrow fit is shown below for inspection only.");
+            ts_index(&fits)
+        }
+    };
+
+    Ok((fits, rec, recommended))
+}
+
+/// Parameters of Torrance–Sparrow (D3) and of the recommended model, with the fit's JSON.
+fn parameters(
+    doc: &mut Doc,
+    set: &DataSet,
+    fits: &[FitResult],
+    ts_i: usize,
+    rec: usize,
+) -> Result<()> {
+    let (name, root, dir) = (&set.name, set.root, &set.name);
+    doc.h(3, "Parameters", &format!("{name}-params"));
+    let mut shown = vec![ts_i];
+    if rec != ts_i {
+        shown.push(rec);
+    }
+    for &i in &shown {
+        let f = &fits[i];
+        let rows: Vec<Vec<String>> = f
+            .params
             .iter()
-            .map(|&i| {
-                let f = &fits[i];
+            .zip(&f.stderr)
+            .map(|((n, v), s)| {
+                let range = f
+                    .ranges
+                    .iter()
+                    .find(|r| r.0 == *n)
+                    .map_or(String::new(), |r| fit::describe_range(n, (r.1, r.2)));
                 vec![
-                    f.label(),
-                    f.n_free.to_string(),
-                    format!("{:.6e}", f.cost),
-                    format!("{:.1}", f.aic),
-                    format!("{:.1}", f.bic),
-                    if f.usable() {
-                        format!("{:.1}", f.bic - best_bic)
+                    n.clone(),
+                    crate::model::readable(*v),
+                    if s.is_finite() && (*s <= 10.0 * v.abs() || *v == 0.0) {
+                        format!("{s:.3e}")
                     } else {
-                        "—".into()
+                        "not determined".into()
                     },
-                    if Some(i) == rec {
-                        "← simplest the data support".into()
-                    } else if !f.usable() {
-                        format!("not usable: {}", f.unusable.join("; "))
-                    } else {
-                        String::new()
-                    },
+                    range,
                 ]
             })
             .collect();
-        doc.table(&["model", "k", "cost", "AIC", "BIC", "ΔBIC", ""], &rows);
         doc.p(&format!(
-            "Every fit was checked by {REPORT_VERIFY} seeded random starts (`brdfit fit --verify {REPORT_VERIFY}`): {}.",
-            if fits.iter().all(|f| f.verification.as_ref().is_some_and(|v| v.verified)) {
-                "none ended lower than the fit shown".to_string()
-            } else {
-                "a fit that one of them beats is marked not usable".to_string()
-            }
+            "{} (log loss, {} samples, termination: {}):",
+            f.label(),
+            f.samples_used,
+            f.termination
         ));
-        let recommended = rec.map(|r| fits[r].label());
-        let rec = match rec {
-            Some(r) => {
-                doc.p(&format!(
-                    "Recommended: {} — the model with the fewest parameters within 2 BIC of the best.",
-                    fits[r].label()
-                ));
-                r
-            }
-            None => {
-                doc.p("No fit is usable, so no model is recommended; the Torrance–Sparrow fit is shown below for inspection only.");
-                ts_index(&fits)
-            }
-        };
-
-        // Parameters of Torrance–Sparrow (D3) and of the recommended model.
-        let ts_i = ts_index(&fits);
-        doc.h(3, "Parameters", &format!("{name}-params"));
-        let mut shown = vec![ts_i];
-        if rec != ts_i {
-            shown.push(rec);
-        }
-        for &i in &shown {
-            let f = &fits[i];
-            let rows: Vec<Vec<String>> = f
-                .params
-                .iter()
-                .zip(&f.stderr)
-                .map(|((n, v), s)| {
-                    let range = f
-                        .ranges
-                        .iter()
-                        .find(|r| r.0 == *n)
-                        .map_or(String::new(), |r| fit::describe_range(n, (r.1, r.2)));
-                    vec![
-                        n.clone(),
-                        crate::model::readable(*v),
-                        if s.is_finite() && (*s <= 10.0 * v.abs() || *v == 0.0) {
-                            format!("{s:.3e}")
-                        } else {
-                            "not determined".into()
-                        },
-                        range,
-                    ]
-                })
-                .collect();
-            doc.p(&format!(
-                "{} (log loss, {} samples, termination: {}):",
-                f.label(),
-                f.samples_used,
-                f.termination
-            ));
-            doc.table(
-                &[
-                    "parameter",
-                    "value",
-                    "std. error",
-                    "range within 1 % of the minimum cost",
-                ],
-                &rows,
-            );
-            for w in &f.warnings {
-                doc.p(&format!("⚠ {w}"));
-            }
-            for why in &f.unusable {
-                doc.p(&format!("✗ Not usable: {why}"));
-            }
-        }
-        let ts = &fits[ts_i];
-        let fit_path = root.join(&dir).join("fit-torrance-sparrow.json");
-        write_bytes_atomic(
-            &fit_path,
-            (serde_json::to_string_pretty(&fit_json(ts))? + "\n").as_bytes(),
-        )?;
-        doc.link(
-            &rel(&fit_path, root),
-            "Torrance–Sparrow fit as JSON (input to brdfit render, plot and export)",
-        );
-        results.push(json!({ "file": file.display().to_string(), "channel": channel_note, "recommended": recommended, "fits": fits.iter().map(fit_json).collect::<Vec<_>>() }));
-
-        // Lobe plots.
-        say(&format!("{name}: plots"));
-        let t = Instant::now();
-        let synthetic = is_synthetic(&ds);
-        let thetas = lobe_angles(&ds);
-        let models = vec![
-            (format!("{} fit", fits[ts_i].label()), ts.model_for(0)),
-            (format!("{} fit", fits[rec].label()), fits[rec].model_for(0)),
-        ];
-        let models: Vec<(String, Model)> = if rec == ts_i {
-            models[..1].to_vec()
-        } else {
-            models
-        };
-        let chart = plot::lobe_chart(
-            &format!("{name}: reflection in the plane of incidence"),
-            &models,
-            Some((&ds, 0)),
-            &thetas,
-            plot::LobeQuantity::Intensity,
-            !synthetic,
-            if synthetic { 5.0 } else { 1.0 },
-        );
-        doc.h(3, "Lobes, residuals and albedo", &format!("{name}-plots"));
-        let (png, svg) = save_chart(&chart, root, &format!("{dir}/lobes"))?;
-        doc.figure(&png, Some(&svg), &format!("Lobes at θi = {:?}° ({} radius; markers: measured samples in the plane of incidence)", thetas, if synthetic { "linear" } else { "logarithmic" }));
-        let pts = plot::residual_points(&ds, 0, &ts.model_for(0), true);
-        for (file_name, chart) in plot::residual_charts(&ts.label(), &pts) {
-            let (png, svg) = save_chart(&chart, root, &format!("{dir}/{file_name}"))?;
-            doc.figure(&png, Some(&svg), &chart.title);
-        }
-        let (chart, apts) = plot::albedo_chart(&ts.label(), &ts.model_for(0));
-        let (png, svg) = save_chart(&chart, root, &format!("{dir}/albedo"))?;
-        doc.figure(
-            &png,
-            Some(&svg),
-            "Directional albedo of the Torrance–Sparrow fit",
-        );
-        if let Some(p) = apts.iter().find(|p| p.1 > 1.0) {
-            doc.p(&format!(
-                "⚠ The fitted model creates energy: albedo {:.3} at θi = {}°.",
-                p.1, p.0
-            ));
-        }
-        tm.insert("plots".into(), json!(t.elapsed().as_secs_f64()));
-
-        // Renders of the fitted material.
-        say(&format!("{name}: renders"));
-        let t = Instant::now();
-        doc.h(
-            3,
-            "Renders of the fitted material",
-            &format!("{name}-renders"),
-        );
-        let m = ts.model_for(0);
-        let mut names = Vec::new();
-        for (lname, l) in [
-            ("front", render::scene::Lighting::Front),
-            ("edge", render::scene::Lighting::Edge),
-        ] {
-            for (mname, mm) in [("phong", crate::model::equal_beta_phong(&m)), ("ts", m)] {
-                let img = render::scene::fig7_scene(mm, l, opts.render_res).render(&|| {});
-                let base = root.join(&dir).join(format!("render-{lname}-{mname}"));
-                render::save(&img, &base)?;
-                names.push(format!("{dir}/render-{lname}-{mname}.png"));
-            }
-        }
-        let _ = writeln!(doc.html, "<div class=\"row\">");
-        for (n, cap) in names.iter().zip([
-            "front lit, Phong (equal β)",
-            "front lit, Torrance–Sparrow",
-            "edge lit, Phong (equal β)",
-            "edge lit, Torrance–Sparrow",
-        ]) {
-            let _ = writeln!(
-                doc.html,
-                "<figure class=\"small\"><img src=\"{n}\" alt=\"{cap}\"><figcaption>{cap} (<a href=\"{}\">EXR</a>)</figcaption></figure>",
-                n.replace(".png", ".exr")
-            );
-            let _ = writeln!(doc.md, "![{cap}]({n})");
-        }
-        let _ = writeln!(doc.html, "</div>");
-        doc.md.push('\n');
-        tm.insert("renders".into(), json!(t.elapsed().as_secs_f64()));
-
-        // Studies.
-        say(&format!("{name}: studies"));
-        let t = Instant::now();
-        doc.h(3, "Speed against accuracy", &format!("{name}-speed"));
-        let truth = study::parse_truth(&ds);
-        let rows = study::speed_accuracy(&ds, truth.as_ref(), 1);
-        let chart = study::speed_chart(
-            &format!("{name}: cost against work, every method × model"),
+        doc.table(
+            &[
+                "parameter",
+                "value",
+                "std. error",
+                "range within 1 % of the minimum cost",
+            ],
             &rows,
-            true,
         );
-        let (png, svg) = save_chart(&chart, root, &format!("{dir}/speed-accuracy"))?;
-        doc.figure(&png, Some(&svg), "Final cost against work (evaluations × samples) with the Pareto front; fit times are in timings.json");
-        let (md, csv) = study::speed_tables(&rows, false);
-        write_bytes_atomic(&root.join(&dir).join("speed-accuracy.csv"), csv.as_bytes())?;
-        doc.md.push_str(&md);
-        doc.md.push('\n');
-        doc.html.push_str(&md_table_to_html(&md));
-        tm.insert(
-            "speed_accuracy_fit_seconds".into(),
-            json!(
-                rows.iter()
-                    .map(|r| json!({"method": r.method, "model": r.model, "seconds": r.seconds}))
-                    .collect::<Vec<_>>()
-            ),
-        );
-        doc.h(
-            3,
-            "Stability from random starts",
-            &format!("{name}-stability"),
-        );
-        let reference = truth
-            .filter(|m| m.kind == ModelKind::TorranceSparrow)
-            .unwrap_or(m);
-        let srows = study::stability(&reference, opts.stability_starts, 600, 1);
-        let chart = study::stability_chart(
-            &format!(
-                "{name}: share of {} random starts reaching the global minimum",
-                opts.stability_starts
-            ),
-            &srows,
-        );
-        let (png, svg) = save_chart(&chart, root, &format!("{dir}/stability"))?;
-        doc.figure(&png, Some(&svg), "Stability across noise levels and sampling patterns (configurations numbered as in the table)");
-        let (md, csv) = study::stability_tables(&srows);
-        write_bytes_atomic(&root.join(&dir).join("stability.csv"), csv.as_bytes())?;
-        doc.md.push_str(&md);
-        doc.md.push('\n');
-        doc.html.push_str(&md_table_to_html(&md));
-        tm.insert("studies".into(), json!(t.elapsed().as_secs_f64()));
-        tm.insert("total".into(), json!(t0.elapsed().as_secs_f64()));
-        timings.insert(name.clone(), Value::Object(tm));
+        for w in &f.warnings {
+            doc.p(&format!("⚠ {w}"));
+        }
+        for why in &f.unusable {
+            doc.p(&format!("✗ Not usable: {why}"));
+        }
+    }
+    let ts = &fits[ts_i];
+    let fit_path = root.join(dir).join("fit-torrance-sparrow.json");
+    write_bytes_atomic(
+        &fit_path,
+        (serde_json::to_string_pretty(&fit_json(ts))? + "\n").as_bytes(),
+    )?;
+    doc.link(
+        &rel(&fit_path, root),
+        "Torrance–Sparrow fit as JSON (input to brdfit render, plot and export)",
+    );
+
+    Ok(())
+}
+
+/// Lobes against the in-plane data, residuals and albedo.
+fn plots(doc: &mut Doc, set: &DataSet, fits: &[FitResult], ts_i: usize, rec: usize) -> Result<()> {
+    let (ds, name, root, dir) = (&set.ds, &set.name, set.root, &set.name);
+    let ts = &fits[ts_i];
+    let synthetic = is_synthetic(ds);
+    let thetas = lobe_angles(ds);
+    let models = vec![
+        (format!("{} fit", fits[ts_i].label()), ts.model_for(0)),
+        (format!("{} fit", fits[rec].label()), fits[rec].model_for(0)),
+    ];
+    let models: Vec<(String, Model)> = if rec == ts_i {
+        models[..1].to_vec()
+    } else {
+        models
+    };
+    let chart = plot::lobe_chart(
+        &format!("{name}: reflection in the plane of incidence"),
+        &models,
+        Some((ds, 0)),
+        &thetas,
+        plot::LobeQuantity::Intensity,
+        !synthetic,
+        if synthetic { 5.0 } else { 1.0 },
+    );
+    doc.h(3, "Lobes, residuals and albedo", &format!("{name}-plots"));
+    let (png, svg) = save_chart(&chart, root, &format!("{dir}/lobes"))?;
+    doc.figure(
+        &png,
+        Some(&svg),
+        &format!(
+            "Lobes at θi = {:?}° ({} radius; markers: measured samples in the plane of incidence)",
+            thetas,
+            if synthetic { "linear" } else { "logarithmic" }
+        ),
+    );
+    let pts = plot::residual_points(ds, 0, &ts.model_for(0), true);
+    for (file_name, chart) in plot::residual_charts(&ts.label(), &pts) {
+        let (png, svg) = save_chart(&chart, root, &format!("{dir}/{file_name}"))?;
+        doc.figure(&png, Some(&svg), &chart.title);
+    }
+    let (chart, apts) = plot::albedo_chart(&ts.label(), &ts.model_for(0));
+    let (png, svg) = save_chart(&chart, root, &format!("{dir}/albedo"))?;
+    doc.figure(
+        &png,
+        Some(&svg),
+        "Directional albedo of the Torrance–Sparrow fit",
+    );
+    if let Some(p) = apts.iter().find(|p| p.1 > 1.0) {
+        doc.p(&format!(
+            "⚠ The fitted model creates energy: albedo {:.3} at θi = {}°.",
+            p.1, p.0
+        ));
     }
 
-    // Assemble.
+    Ok(())
+}
+
+/// Figure 7 renders of the fitted Torrance–Sparrow material and its equal-β Phong.
+fn renders(doc: &mut Doc, set: &DataSet, ts: &FitResult) -> Result<()> {
+    let (name, root, dir, opts) = (&set.name, set.root, &set.name, set.opts);
+    doc.h(
+        3,
+        "Renders of the fitted material",
+        &format!("{name}-renders"),
+    );
+    let m = ts.model_for(0);
+    let mut names = Vec::new();
+    for (lname, l) in [
+        ("front", render::scene::Lighting::Front),
+        ("edge", render::scene::Lighting::Edge),
+    ] {
+        for (mname, mm) in [("phong", crate::model::equal_beta_phong(&m)), ("ts", m)] {
+            let img = render::scene::fig7_scene(mm, l, opts.render_res).render(&|| {});
+            let base = root.join(dir).join(format!("render-{lname}-{mname}"));
+            render::save(&img, &base)?;
+            names.push(format!("{dir}/render-{lname}-{mname}.png"));
+        }
+    }
+    let _ = writeln!(doc.html, "<div class=\"row\">");
+    for (n, cap) in names.iter().zip([
+        "front lit, Phong (equal β)",
+        "front lit, Torrance–Sparrow",
+        "edge lit, Phong (equal β)",
+        "edge lit, Torrance–Sparrow",
+    ]) {
+        let _ = writeln!(
+            doc.html,
+            "<figure class=\"small\"><img src=\"{n}\" alt=\"{cap}\"><figcaption>{cap} (<a href=\"{}\">EXR</a>)</figcaption></figure>",
+            n.replace(".png", ".exr")
+        );
+        let _ = writeln!(doc.md, "![{cap}]({n})");
+    }
+    let _ = writeln!(doc.html, "</div>");
+    doc.md.push('\n');
+
+    Ok(())
+}
+
+/// What each scene needs: `brdfit choose` on Blinn's Figure 7 cases at 512², its sheet and
+/// chart per case.
+fn scene_needs(doc: &mut Doc, set: &DataSet) -> Result<()> {
+    let (name, root, dir) = (&set.name, set.root, &set.name);
+    doc.h(3, "What each scene needs", &format!("{name}-choose"));
+    let (r, images) = crate::choose::choose(
+        &set.ds,
+        &crate::choose::fig7_cases(CHOOSE_RES),
+        &crate::choose::ChooseOptions::default(),
+        &|_| {},
+    )?;
+    let out = root.join(dir).join("choose");
+    crate::choose::write(&out, &r, &images)?;
+    doc.p(&format!(
+        "The measurement itself is rendered as the reference (resampled onto a half/difference \
+         table, {:.0} % of its cells filled from the {} fit) on Blinn's Figure 7 sphere at \
+         {CHOOSE_RES}², and each model is fitted to the configurations the scene's lit pixels \
+         show (`brdfit choose`, threshold {} ≤ {}). The simplest model under the threshold is \
+         enough for that scene.",
+        100.0 * r.fill_share,
+        r.fill_model,
+        r.threshold.metric,
+        r.threshold.value
+    ));
+    for c in &r.cases {
+        let answer = match &c.chosen {
+            Some(m) => format!("{} lit: {m} is enough.", c.case),
+            None => format!(
+                "{} lit: no model is within the threshold; the closest is {}.",
+                c.case, c.closest
+            ),
+        };
+        doc.p(&answer);
+        let sheet = format!("{dir}/choose/{}/sheet.png", c.case);
+        doc.figure(
+            &sheet,
+            None,
+            &format!(
+                "{answer} Top: the reference and each model's render; below: ꟻLIP error maps."
+            ),
+        );
+        let chart = format!("{dir}/choose/{}/chart", c.case);
+        doc.figure(
+            &format!("{chart}.png"),
+            Some(&format!("{chart}.svg")),
+            "Image error against fit + render time; the ringed point is the choice.",
+        );
+    }
+    let md = crate::choose::markdown(&r);
+    doc.md.push_str(&md);
+    doc.md.push('\n');
+    doc.html.push_str(&md_table_to_html(&md));
+    doc.link(
+        &format!("{dir}/choose/choose.json"),
+        "the choice as JSON (choose.json)",
+    );
+    Ok(())
+}
+
+/// Speed against accuracy and stability from random starts.
+fn studies(
+    doc: &mut Doc,
+    set: &DataSet,
+    ts: &FitResult,
+    tm: &mut serde_json::Map<String, Value>,
+) -> Result<()> {
+    let (ds, name, root, dir, opts) = (&set.ds, &set.name, set.root, &set.name, set.opts);
+    let m = ts.model_for(0);
+    doc.h(3, "Speed against accuracy", &format!("{name}-speed"));
+    let truth = study::parse_truth(ds);
+    let rows = study::speed_accuracy(ds, truth.as_ref(), 1);
+    let chart = study::speed_chart(
+        &format!("{name}: cost against work, every method × model"),
+        &rows,
+        true,
+    );
+    let (png, svg) = save_chart(&chart, root, &format!("{dir}/speed-accuracy"))?;
+    doc.figure(&png, Some(&svg), "Final cost against work (evaluations × samples) with the Pareto front; fit times are in timings.json");
+    let (md, csv) = study::speed_tables(&rows, false);
+    write_bytes_atomic(&root.join(dir).join("speed-accuracy.csv"), csv.as_bytes())?;
+    doc.md.push_str(&md);
+    doc.md.push('\n');
+    doc.html.push_str(&md_table_to_html(&md));
+    tm.insert(
+        "speed_accuracy_fit_seconds".into(),
+        json!(
+            rows.iter()
+                .map(|r| json!({"method": r.method, "model": r.model, "seconds": r.seconds}))
+                .collect::<Vec<_>>()
+        ),
+    );
+    doc.h(
+        3,
+        "Stability from random starts",
+        &format!("{name}-stability"),
+    );
+    let reference = truth
+        .filter(|m| m.kind == ModelKind::TorranceSparrow)
+        .unwrap_or(m);
+    let srows = study::stability(&reference, opts.stability_starts, 600, 1);
+    let chart = study::stability_chart(
+        &format!(
+            "{name}: share of {} random starts reaching the global minimum",
+            opts.stability_starts
+        ),
+        &srows,
+    );
+    let (png, svg) = save_chart(&chart, root, &format!("{dir}/stability"))?;
+    doc.figure(&png, Some(&svg), "Stability across noise levels and sampling patterns (configurations numbered as in the table)");
+    let (md, csv) = study::stability_tables(&srows);
+    write_bytes_atomic(&root.join(dir).join("stability.csv"), csv.as_bytes())?;
+    doc.md.push_str(&md);
+    doc.md.push('\n');
+    doc.html.push_str(&md_table_to_html(&md));
+    Ok(())
+}
+
+/// index.html, report.md, results.json and timings.json.
+fn assemble(
+    root: &Path,
+    doc: &Doc,
+    toc: &[(String, String)],
+    results: Vec<Value>,
+    mut timings: serde_json::Map<String, Value>,
+    t_all: Instant,
+) -> Result<()> {
     let mut html = String::from(
         "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>brdfit report</title>\n<style>\nbody{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}\ntable{border-collapse:collapse;margin:0.5em 0}\ntd,th{border:1px solid #bbb;padding:3px 8px;text-align:left}\nimg{max-width:100%}\nfigure{margin:1em 0}\nfigure.small{display:inline-block;width:24%;margin:0.3em}\npre{background:#f4f4f4;padding:0.6em}\n</style>\n</head>\n<body>\n<h1>brdfit report</h1>\n",
     );
     let mut md = String::from("# brdfit report\n\n");
     html.push_str("<p>Fits of reflection models to the measured samples below, with uncertainties, the model comparison, plots against the data, renders of the fitted materials and the method studies. Every fit is in <a href=\"results.json\">results.json</a>; run times are only in <a href=\"timings.json\">timings.json</a>. The same content as Markdown: <a href=\"report.md\">report.md</a>.</p>\n<ul>\n<li><a href=\"#blinn\">Blinn 1977, Figures 5–7</a></li>\n");
     md.push_str("Every fit is in [results.json](results.json); run times are only in [timings.json](timings.json).\n\n- [Blinn 1977, Figures 5–7](#blinn-1977-figures-57)\n");
-    for (name, id) in &toc {
+    for (name, id) in toc {
         let _ = writeln!(html, "<li><a href=\"#{id}\">{}</a></li>", esc(name));
         let _ = writeln!(md, "- {name}");
     }
@@ -539,6 +692,9 @@ fn md_table_to_html(md: &str) -> String {
 
 /// Random starts the report's verification runs for every fit it shows.
 const REPORT_VERIFY: usize = 8;
+
+/// Resolution of the report's `choose` renders (the CLI's default).
+const CHOOSE_RES: u32 = 512;
 
 /// The Torrance–Sparrow D3 fit among the fits of [`fit::all_models`].
 fn ts_index(fits: &[FitResult]) -> usize {
