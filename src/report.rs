@@ -539,13 +539,14 @@ fn scene_needs(doc: &mut Doc, set: &DataSet) -> Result<()> {
         doc.figure(
             &format!("{chart}.png"),
             Some(&format!("{chart}.svg")),
-            "Image error against fit + render time; the ringed point is the choice.",
+            "Image error against fit + render time (times measured in this run; the other \
+             numbers are the same on every run); the ringed point is the choice.",
         );
+        let md = crate::choose::case_table(c, false);
+        doc.md.push_str(&md);
+        doc.md.push('\n');
+        doc.html.push_str(&md_table_to_html(&md));
     }
-    let md = crate::choose::markdown(&r);
-    doc.md.push_str(&md);
-    doc.md.push('\n');
-    doc.html.push_str(&md_table_to_html(&md));
     doc.link(
         &format!("{dir}/choose/choose.json"),
         "the choice as JSON (choose.json)",
