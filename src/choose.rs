@@ -282,7 +282,7 @@ pub struct ThresholdJson {
 pub struct CaseImages {
     /// Case name.
     pub case: String,
-    /// (name, image, object mask): the reference first, then each candidate.
+    /// (name, image): the reference first, then each candidate.
     pub renders: Vec<(String, Image)>,
     /// Per-candidate LDR-ꟻLIP maps (same order as `renders[1..]`).
     pub flip_maps: Vec<Vec<f32>>,
@@ -420,150 +420,29 @@ pub fn choose(
     progress: &dyn Fn(&str),
 ) -> Result<(ChooseResult, Vec<CaseImages>), crate::fit::FitError> {
     // Global fits: the comparison the report already makes, and the fill of empty cells.
-    let mut global = Vec::new();
-    for &(kind, dist) in &opts.candidates {
-        global.push(fit_one(ds, kind, dist, opts.verify)?);
-    }
-    let best = (0..global.len())
-        .filter(|&i| global[i].usable())
-        .min_by(|&a, &b| global[a].bic.total_cmp(&global[b].bic))
-        .unwrap_or(0);
-    let fill_model = global[best].model_for(0);
-    let t = Instant::now();
-    let dims = Dims::for_samples(ds.len());
-    let table = Arc::new(Tabulated::resample(ds, dims, fill_model));
-    let resample_seconds = t.elapsed().as_secs_f64();
-    let fill_share = table.fill_share();
-    let fill_name = model_name(global[best].model, global[best].dist);
+    let global = opts
+        .candidates
+        .iter()
+        .map(|&(kind, dist)| fit_one(ds, kind, dist, opts.verify))
+        .collect::<Result<Vec<_>, _>>()?;
+    let reference = Reference::new(ds, &global);
+    let r = &reference;
     progress(&format!(
         "resampled {} samples onto a {}×{}×{} table in {:.2} s; {:.1} % of cells filled from {}",
         ds.len(),
-        dims.0[0],
-        dims.0[1],
-        dims.0[2],
-        resample_seconds,
-        100.0 * fill_share,
-        fill_name
+        r.table.dims.0[0],
+        r.table.dims.0[1],
+        r.table.dims.0[2],
+        r.seconds,
+        100.0 * r.table.fill_share(),
+        r.fill_name
     ));
-    let measured = fill_share <= MAX_FILL_SHARE;
-    let reference_name = if measured {
-        "measured".to_string()
-    } else {
-        fill_name.clone()
-    };
     let mut results = Vec::new();
     let mut images = Vec::new();
     for case in cases {
-        let base = case.scene.materials[0].clone();
-        let material = |model: Model, table: Option<Arc<Tabulated>>| crate::render::Material {
-            model,
-            measured: table,
-            ..base.clone()
-        };
-        let reference_material = if measured {
-            material(fill_model, Some(table.clone()))
-        } else {
-            material(fill_model, None)
-        };
-        let (reference, reference_seconds) = render_with(&case.scene, reference_material);
-        let lookup = |g: &crate::model::Geometry| {
-            if measured {
-                table.brdf(g)
-            } else {
-                fill_model.brdf(g)
-            }
-        };
-        let (samples, mask, lit) = scene_samples(&case.scene, 0, &lookup);
-        let measured_share = if measured {
-            let w = samples.weights.as_deref().unwrap_or(&[]);
-            let (mut inside, mut all) = (0.0, 0.0);
-            for k in 0..samples.len() {
-                let g = crate::model::Geometry::from_angles(
-                    samples.theta_i[k],
-                    samples.phi_i[k],
-                    samples.theta_o[k],
-                    samples.phi_o[k],
-                );
-                all += w[k];
-                if table.is_measured(&g) {
-                    inside += w[k];
-                }
-            }
-            inside / all.max(1.0)
-        } else {
-            0.0
-        };
-        progress(&format!(
-            "{}: {} lit pixels in {} configurations, {:.0} % of them in measured cells; \
-             reference rendered in {:.2} s",
-            case.name,
-            lit,
-            samples.len(),
-            100.0 * measured_share,
-            reference_seconds
-        ));
-        let mut rows = Vec::new();
-        let mut renders = vec![(reference_name.clone(), reference.clone())];
-        let mut flip_maps = Vec::new();
-        for (k, &(kind, dist)) in opts.candidates.iter().enumerate() {
-            let t = Instant::now();
-            let (model, params, usable) = if samples.is_empty() {
-                // Nothing lit: the global fit stands in (every model renders black there).
-                let g = &global[k];
-                (g.model_for(0), g.params.clone(), g.usable())
-            } else {
-                let r = fit_one(&samples, kind, dist, opts.verify)?;
-                (r.model_for(0), r.params.clone(), r.usable())
-            };
-            let fit_seconds = t.elapsed().as_secs_f64();
-            let (img, render_seconds) = render_with(&case.scene, material(model, None));
-            let (f, fmap, d, rmse) = errors(&reference, &img, &mask);
-            let (global_img, _) = render_with(&case.scene, material(global[k].model_for(0), None));
-            let (gf, _, _, _) = errors(&reference, &global_img, &mask);
-            let name = model_name(kind, dist);
-            progress(&format!(
-                "{}: {name}: ꟻLIP p99 {:.3} (global fit {:.3}), ΔE_ITP p99 {:.2}",
-                case.name, f.p99, gf.p99, d.p99
-            ));
-            rows.push(ModelRow {
-                model: name.clone(),
-                distribution: dist,
-                params,
-                global_params: global[k].params.clone(),
-                bic: global[k].bic,
-                flip_mean: compare::summarise(&fmap, &[], FLIP_LEVEL).mean,
-                flip_p99: f.p99,
-                flip_above: f.above,
-                delta_e_itp_mean: d.mean,
-                delta_e_itp_p99: d.p99,
-                rmse,
-                global_flip_p99: gf.p99,
-                fit_seconds,
-                render_seconds,
-                rays: img.total_rays(),
-                usable,
-            });
-            renders.push((name, img));
-            flip_maps.push(fmap);
-        }
-        let (chosen, closest) = pick(&rows, opts.threshold);
-        results.push(CaseResult {
-            case: case.name.clone(),
-            reference: reference_name.clone(),
-            chosen: chosen.map(|i| rows[i].model.clone()),
-            closest: rows[closest].model.clone(),
-            configurations: samples.len(),
-            lit_pixels: lit,
-            measured_share,
-            reference_render_seconds: reference_seconds,
-            models: rows,
-        });
-        images.push(CaseImages {
-            case: case.name.clone(),
-            renders,
-            flip_maps,
-            mask,
-        });
+        let (result, imgs) = run_case(case, r, &global, opts, progress)?;
+        results.push(result);
+        images.push(imgs);
     }
     Ok((
         ChooseResult {
@@ -576,13 +455,179 @@ pub fn choose(
                 .first()
                 .map(|c| c.name.clone())
                 .unwrap_or_default(),
-            table: dims,
-            fill_share,
-            fill_model: fill_name,
-            resample_seconds,
+            table: r.table.dims,
+            fill_share: r.table.fill_share(),
+            fill_model: r.fill_name.clone(),
+            resample_seconds: r.seconds,
             cases: results,
         },
         images,
+    ))
+}
+
+/// What the reference images are rendered with: the resampled measurement, or (when most of
+/// its table would be the fill) the best global fit.
+struct Reference {
+    table: Arc<Tabulated>,
+    fill: Model,
+    fill_name: String,
+    /// True when the table is the reference.
+    measured: bool,
+    /// Resampling time (s).
+    seconds: f64,
+}
+
+impl Reference {
+    /// Resample `ds` with the lowest-BIC usable global fit as the fill.
+    fn new(ds: &Dataset, global: &[FitResult]) -> Reference {
+        let best = (0..global.len())
+            .filter(|&i| global[i].usable())
+            .min_by(|&a, &b| global[a].bic.total_cmp(&global[b].bic))
+            .unwrap_or(0);
+        let fill = global[best].model_for(0);
+        let t = Instant::now();
+        let table = Arc::new(Tabulated::resample(ds, Dims::for_samples(ds.len()), fill));
+        let seconds = t.elapsed().as_secs_f64();
+        let measured = table.fill_share() <= MAX_FILL_SHARE;
+        Reference {
+            table,
+            fill,
+            fill_name: model_name(global[best].model, global[best].dist),
+            measured,
+            seconds,
+        }
+    }
+
+    /// The name `choose.json` gives the reference.
+    fn name(&self) -> String {
+        if self.measured {
+            "measured".into()
+        } else {
+            self.fill_name.clone()
+        }
+    }
+
+    /// f_r of the reference.
+    fn brdf(&self, g: &crate::model::Geometry) -> f64 {
+        if self.measured {
+            self.table.brdf(g)
+        } else {
+            self.fill.brdf(g)
+        }
+    }
+
+    /// Pixel-weighted share of `samples` in measured table cells.
+    fn measured_share(&self, samples: &Dataset) -> f64 {
+        if !self.measured {
+            return 0.0;
+        }
+        let w = samples.weights.as_deref().unwrap_or(&[]);
+        let (mut inside, mut all) = (0.0, 0.0);
+        for k in 0..samples.len().min(w.len()) {
+            let g = crate::model::Geometry::from_angles(
+                samples.theta_i[k],
+                samples.phi_i[k],
+                samples.theta_o[k],
+                samples.phi_o[k],
+            );
+            all += w[k];
+            if self.table.is_measured(&g) {
+                inside += w[k];
+            }
+        }
+        inside / all.max(1.0)
+    }
+}
+
+/// One lighting case: the reference render, the scene-weighted samples, and each candidate's
+/// fit, render and image error.
+fn run_case(
+    case: &Case,
+    reference: &Reference,
+    global: &[FitResult],
+    opts: &ChooseOptions,
+    progress: &dyn Fn(&str),
+) -> Result<(CaseResult, CaseImages), crate::fit::FitError> {
+    let base = case.scene.materials[0].clone();
+    let material = |model: Model, table: Option<Arc<Tabulated>>| crate::render::Material {
+        model,
+        measured: table,
+        ..base.clone()
+    };
+    let table = reference.measured.then(|| reference.table.clone());
+    let (ref_img, reference_seconds) = render_with(&case.scene, material(reference.fill, table));
+    let (samples, mask, lit) = scene_samples(&case.scene, 0, &|g| reference.brdf(g));
+    let measured_share = reference.measured_share(&samples);
+    progress(&format!(
+        "{}: {} lit pixels in {} configurations, {:.0} % of them in measured cells; \
+         reference rendered in {:.2} s",
+        case.name,
+        lit,
+        samples.len(),
+        100.0 * measured_share,
+        reference_seconds
+    ));
+    let mut rows = Vec::new();
+    let mut renders = vec![(reference.name(), ref_img.clone())];
+    let mut flip_maps = Vec::new();
+    for (k, &(kind, dist)) in opts.candidates.iter().enumerate() {
+        let t = Instant::now();
+        // Nothing lit: the global fit stands in (every model renders black there).
+        let fitted = if samples.is_empty() {
+            global[k].clone()
+        } else {
+            fit_one(&samples, kind, dist, opts.verify)?
+        };
+        let fit_seconds = t.elapsed().as_secs_f64();
+        let (img, render_seconds) = render_with(&case.scene, material(fitted.model_for(0), None));
+        let (f, fmap, d, rmse) = errors(&ref_img, &img, &mask);
+        let (global_img, _) = render_with(&case.scene, material(global[k].model_for(0), None));
+        let (gf, _, _, _) = errors(&ref_img, &global_img, &mask);
+        let name = model_name(kind, dist);
+        progress(&format!(
+            "{}: {name}: ꟻLIP p99 {:.3} (global fit {:.3}), ΔE_ITP p99 {:.2}",
+            case.name, f.p99, gf.p99, d.p99
+        ));
+        rows.push(ModelRow {
+            model: name.clone(),
+            distribution: dist,
+            params: fitted.params.clone(),
+            global_params: global[k].params.clone(),
+            bic: global[k].bic,
+            flip_mean: compare::summarise(&fmap, &[], FLIP_LEVEL).mean,
+            flip_p99: f.p99,
+            flip_above: f.above,
+            delta_e_itp_mean: d.mean,
+            delta_e_itp_p99: d.p99,
+            rmse,
+            global_flip_p99: gf.p99,
+            fit_seconds,
+            render_seconds,
+            rays: img.total_rays(),
+            usable: fitted.usable(),
+        });
+        renders.push((name, img));
+        flip_maps.push(fmap);
+    }
+    let (chosen, closest) = pick(&rows, opts.threshold);
+    Ok((
+        CaseResult {
+            case: case.name.clone(),
+            reference: reference.name(),
+            chosen: chosen.map(|i| rows[i].model.clone()),
+            closest: rows[closest].model.clone(),
+            configurations: samples.len(),
+            lit_pixels: lit,
+            measured_share,
+            reference_render_seconds: reference_seconds,
+            models: rows,
+        },
+        CaseImages {
+            case: case.name.clone(),
+            renders,
+            flip_maps,
+            mask,
+        },
     ))
 }
 
@@ -635,9 +680,13 @@ pub fn markdown(r: &ChooseResult) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "Channel {}; measurement resampled onto a {}×{}×{} half/difference table, {:.1} % of cells \
+        "Channel: {}; measurement resampled onto a {}×{}×{} half/difference table, {:.1} % of cells \
          filled from the {} fit. Threshold: {} ≤ {}.\n",
-        r.channel,
+        if r.channel.is_empty() {
+            "the single channel"
+        } else {
+            &r.channel
+        },
         r.table.0[0],
         r.table.0[1],
         r.table.0[2],
