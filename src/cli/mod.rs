@@ -8,6 +8,7 @@ mod inverse;
 mod io;
 mod plot;
 mod render;
+mod report;
 mod study;
 
 pub(crate) use args::*;
@@ -17,6 +18,7 @@ pub(crate) use inverse::*;
 pub(crate) use io::*;
 pub(crate) use plot::*;
 pub(crate) use render::*;
+pub(crate) use report::*;
 pub(crate) use study::*;
 
 use anyhow::{Context, Result, bail};
@@ -220,38 +222,7 @@ pub(crate) fn run(cli: Cli) -> Result<()> {
             output,
             stability_starts,
             render_res,
-        } => {
-            let quiet = quiet();
-            let files = if files.is_empty() {
-                let f = brdfit::report::bundled_files(Path::new("data"));
-                if f.is_empty() {
-                    bail!(
-                        "no data files given and none found in data/\n  fix: run from the brdfit checkout, or name the files: brdfit report FILE..."
-                    );
-                }
-                f
-            } else {
-                files
-            };
-            let t = std::time::Instant::now();
-            brdfit::report::report(
-                &files,
-                &brdfit::report::ReportOptions {
-                    out: output.clone(),
-                    stability_starts: stability_starts.clamp(1, 100),
-                    render_res: render_res.clamp(16, 4096),
-                    verbose: !quiet,
-                },
-            )?;
-            if !quiet {
-                eprintln!(
-                    "report written to {}/index.html in {:.1} s",
-                    output.display(),
-                    t.elapsed().as_secs_f64()
-                );
-            }
-            Ok(())
-        }
+        } => run_report(files, &output, stability_starts, render_res),
         Command::Render {
             scene,
             output,
