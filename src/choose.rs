@@ -772,22 +772,52 @@ fn magma(lut: &[u8], e: f32) -> [u8; 3] {
     [lut[3 * i], lut[3 * i + 1], lut[3 * i + 2]]
 }
 
-/// The contact sheet of a case: the reference and each model's render in the top row, each
-/// model's ꟻLIP map (magma, 0–1) below it, labelled with its 99th percentile over the
-/// object, and a colour bar.
+/// The square crop (x0, y0, side) of the images that holds every visible pixel (sRGB above
+/// 8 in any image) with a margin: the whole image unless the visible part is small, so a thin
+/// edge-lit crescent is shown large.
+fn visible_crop(srgb: &[Vec<u8>], w: u32, h: u32) -> (u32, u32, u32) {
+    let (mut x0, mut y0, mut x1, mut y1) = (w, h, 0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let i = 3 * (y * w + x) as usize;
+            if srgb.iter().any(|s| s[i..i + 3].iter().any(|&v| v > 8)) {
+                (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
+            }
+        }
+    }
+    if x1 < x0 {
+        return (0, 0, w.min(h));
+    }
+    let side = ((x1 - x0).max(y1 - y0) + 1 + w / 16)
+        .max(w / 8)
+        .min(w.min(h));
+    if side * 10 > w.min(h) * 7 {
+        return (0, 0, w.min(h));
+    }
+    let cx = (x0 + x1) / 2;
+    let cy = (y0 + y1) / 2;
+    let left = cx.saturating_sub(side / 2).min(w - side);
+    let top = cy.saturating_sub(side / 2).min(h - side);
+    (left, top, side)
+}
+
+/// The contact sheet of a case, 4 columns wide so its text stays legible where the report
+/// shows it: each cell is a render over its ꟻLIP map (magma, 0–1), labelled with the model
+/// and its 99th percentiles; the reference's cell holds the colour bar instead of a map. A
+/// small visible region (an edge-lit crescent) is shown zoomed, and the title says so.
 fn contact_sheet(
     case: &CaseResult,
     imgs: &CaseImages,
     th: &ThresholdJson,
 ) -> anyhow::Result<Vec<u8>> {
     use plotters::prelude::*;
-    let tile = 200u32;
-    let gap = 10u32;
-    let cols = imgs.renders.len() as u32;
-    let (top, label_h) = (56u32, 40u32);
-    let bar_h = 70u32;
+    let (tile, gap, label_h, top) = (256u32, 14u32, 40u32, 44u32);
+    let cols = 4u32;
+    let n = imgs.renders.len() as u32;
+    let rows = n.div_ceil(cols);
+    let cell_h = label_h + 2 * tile + 8;
     let w = gap + cols * (tile + gap);
-    let h = top + 2 * (tile + label_h) + bar_h;
+    let h = top + rows * (cell_h + gap);
     let mut buf = vec![255u8; (w * h * 3) as usize];
     let lut = nv_flip::magma_lut().to_vec();
     let put = |buf: &mut Vec<u8>, x: u32, y: u32, c: [u8; 3]| {
@@ -800,33 +830,41 @@ fn contact_sheet(
         .map(|(_, i)| crate::render::to_srgb8(i))
         .collect();
     let (iw, ih) = (imgs.renders[0].1.width, imgs.renders[0].1.height);
-    // Nearest-pixel resampling onto the tile: the sheet shows the pixels the metrics saw.
-    for y in 0..tile {
-        for x in 0..tile {
-            let (sx, sy) = (x * iw / tile, y * ih / tile);
-            let i = (sy * iw + sx) as usize;
-            for c in 0..cols {
-                let x0 = gap + c * (tile + gap);
-                let s = &srgb[c as usize];
+    let (cx, cy, side) = visible_crop(&srgb, iw, ih);
+    let origin = |k: u32| {
+        (
+            gap + (k % cols) * (tile + gap),
+            top + (k / cols) * (cell_h + gap),
+        )
+    };
+    // Nearest-pixel resampling of the crop onto the tile: the sheet shows the pixels the
+    // metrics saw.
+    for k in 0..n {
+        let (x0, y0) = origin(k);
+        for y in 0..tile {
+            for x in 0..tile {
+                let (sx, sy) = (cx + x * side / tile, cy + y * side / tile);
+                let i = (sy * iw + sx) as usize;
+                let s = &srgb[k as usize];
                 put(
                     &mut buf,
                     x0 + x,
-                    top + y,
+                    y0 + label_h + y,
                     [s[3 * i], s[3 * i + 1], s[3 * i + 2]],
                 );
-                if c > 0 {
-                    let e = imgs.flip_maps[c as usize - 1][i];
-                    put(&mut buf, x0 + x, top + tile + label_h + y, magma(&lut, e));
+                let below = y0 + label_h + tile + 8 + y;
+                if k > 0 {
+                    let e = imgs.flip_maps[k as usize - 1][i];
+                    put(&mut buf, x0 + x, below, magma(&lut, e));
+                } else if (tile / 2..tile / 2 + 20).contains(&y) && (8..tile - 8).contains(&x) {
+                    put(
+                        &mut buf,
+                        x0 + x,
+                        below,
+                        magma(&lut, (x - 8) as f32 / (tile - 17) as f32),
+                    );
                 }
             }
-        }
-    }
-    let bar_y = top + 2 * (tile + label_h) + 8;
-    let bar_w = (w - 2 * gap).min(600);
-    for x in 0..bar_w {
-        let c = magma(&lut, x as f32 / (bar_w - 1) as f32);
-        for y in 0..16 {
-            put(&mut buf, gap + x, bar_y + y, c);
         }
     }
     {
@@ -846,54 +884,60 @@ fn contact_sheet(
             Some(m) => format!("{m} is enough"),
             None => format!("no model within the threshold; closest: {}", case.closest),
         };
+        let zoom = if side < iw.min(ih) {
+            format!(", images zoomed ×{:.1}", iw.min(ih) as f64 / side as f64)
+        } else {
+            String::new()
+        };
         e(text(
-            format!("{} lit: {answer} ({} ≤ {})", case.case, th.metric, th.value),
+            format!(
+                "{} lit: {answer} ({} ≤ {}{zoom})",
+                case.case, th.metric, th.value
+            ),
             gap,
-            10,
-            18.0,
+            12,
+            20.0,
         ))?;
-        for c in 0..cols {
-            let x0 = gap + c * (tile + gap);
-            let name = if c == 0 {
-                format!("reference ({})", case.reference)
-            } else {
-                imgs.renders[c as usize].0.clone()
-            };
-            e(text(name, x0, top - 20, 14.0))?;
-            if c > 0 {
-                let m = &case.models[c as usize - 1];
-                let mark = if case.chosen.as_deref() == Some(&m.model) {
-                    "  chosen"
-                } else {
-                    ""
-                };
+        for k in 0..n {
+            let (x0, y0) = origin(k);
+            if k == 0 {
                 e(text(
-                    format!("ꟻLIP p99 {:.3}{mark}", m.flip_p99),
+                    format!("reference ({})", case.reference),
                     x0,
-                    top + tile + 6,
-                    13.0,
+                    y0 + 2,
+                    16.0,
                 ))?;
                 e(text(
-                    format!("ΔE_ITP p99 {:.2}", m.delta_e_itp_p99),
-                    x0,
-                    top + tile + 22,
-                    13.0,
+                    "ꟻLIP error scale".into(),
+                    x0 + 8,
+                    y0 + label_h + tile + 8 + tile / 2 - 24,
+                    14.0,
                 ))?;
+                for (v, dx) in [(0.0, 0u32), (0.5, tile / 2 - 20), (1.0, tile - 40)] {
+                    e(text(
+                        format!("{v:.1}"),
+                        x0 + 8 + dx,
+                        y0 + label_h + tile + 8 + tile / 2 + 26,
+                        14.0,
+                    ))?;
+                }
+                continue;
             }
-        }
-        e(text(
-            "ꟻLIP error maps (second row), magma scale:".into(),
-            gap,
-            top + 2 * tile + label_h + 14,
-            13.0,
-        ))?;
-        for k in 0..=4 {
-            let v = k as f64 / 4.0;
+            let m = &case.models[k as usize - 1];
+            let mark = if case.chosen.as_deref() == Some(&m.model) {
+                " ✔ chosen"
+            } else {
+                ""
+            };
+            e(text(format!("{}{mark}", m.model), x0, y0 + 2, 16.0))?;
             e(text(
-                format!("{v:.2}"),
-                gap + (v * (bar_w - 1) as f64) as u32,
-                bar_y + 22,
-                13.0,
+                format!(
+                    "ꟻLIP p99 {:.3}   ΔE_ITP p99 {:.2}",
+                    m.flip_p99, m.delta_e_itp_p99
+                ),
+                x0,
+                y0 + 21,
+                14.0,
             ))?;
         }
         root.present()
