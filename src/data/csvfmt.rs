@@ -70,24 +70,7 @@ pub(crate) fn load_csv(
         reader.consume(3);
     }
     // Leading comment lines carry metadata; keep them and count lines.
-    let mut comments = Vec::new();
-    let mut offset: u64 = 0;
-    loop {
-        let buf = reader.fill_buf().map_err(|e| io_error(path, &e))?;
-        if buf.is_empty() || !(buf[0] == b'#' || buf[0] == b'\n' || buf[0] == b'\r') {
-            break;
-        }
-        let mut line = Vec::new();
-        reader
-            .read_until(b'\n', &mut line)
-            .map_err(|e| io_error(path, &e))?;
-        offset += 1;
-        let text = String::from_utf8_lossy(&line);
-        let t = text.trim_start_matches('#').trim();
-        if !t.is_empty() && comments.len() < 1000 {
-            comments.push(t.chars().take(500).collect::<String>());
-        }
-    }
+    let (comments, offset) = leading_comments(path, &mut reader)?;
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(true)
         .comment(Some(b'#'))
@@ -116,11 +99,72 @@ pub(crate) fn load_csv(
              with ',' between fields and '.' decimals",
         ));
     }
+    let (cols, channels, quantity) = parse_header(path, &headers, header_line, values)?;
+    let mut ds = Dataset::new(quantity.unwrap_or(Quantity::Brdf), channels);
+    ds.meta.comments = comments;
+    ds.meta.material = ds
+        .meta
+        .comments
+        .iter()
+        .find_map(|c| c.strip_prefix("material:").map(|m| m.trim().to_string()));
+    let nch = ds.channels.len();
+    let mut sink = RowSink::new(path, policy, ds);
+    let mut record = csv::StringRecord::new();
+    let mut vals = vec![0.0; nch];
+    loop {
+        match rdr.read_record(&mut record) {
+            Ok(false) => break,
+            Ok(true) => {}
+            Err(e) => return Err(csv_error(path, offset, e)),
+        }
+        let line = offset + record.position().map_or(0, |p| p.line());
+        let mut angles = [0.0; 4];
+        let mut weight = None;
+        for (field, (col, name)) in record.iter().zip(cols.iter().zip(headers.iter())) {
+            match col {
+                Col::Angle(k, f) => {
+                    if field.is_empty() {
+                        return Err(DataError::new(
+                            path,
+                            Some(line),
+                            format!("column {name}: empty angle"),
+                            "every row needs all four angles",
+                        ));
+                    }
+                    angles[*k] = parse_number(path, line, name, field)? * f;
+                }
+                Col::Value(c) => {
+                    vals[*c] = if field.is_empty() {
+                        f64::NAN
+                    } else {
+                        parse_number(path, line, name, field)?
+                    };
+                }
+                Col::Weight => weight = Some(parse_number(path, line, name, field)?),
+                Col::Ignored => {}
+            }
+        }
+        sink.push(line, angles, &vals, weight)?;
+    }
+    sink.finish()
+}
+
+/// What a header declares: each column's role, the value channels (name, wavelength) and
+/// the quantity.
+type Header = (Vec<Col>, Vec<(String, Option<f64>)>, Option<Quantity>);
+
+/// The columns of a header line: what each column holds, the value channels (name and
+/// wavelength) and the quantity; an error names the line and the fix.
+fn parse_header(
+    path: &Path,
+    headers: &csv::StringRecord,
+    header_line: u64,
+    values: bool,
+) -> Result<Header, DataError> {
     let mut cols = Vec::with_capacity(headers.len());
     let mut angle_seen = [false; 4];
     let mut channels: Vec<(String, Option<f64>)> = Vec::new();
     let mut quantity: Option<Quantity> = None;
-    let mut has_weight = false;
     for raw in headers.iter() {
         let name = raw.trim().to_ascii_lowercase();
         if let Some(k) = ANGLE_NAMES.iter().position(|a| name.starts_with(a)) {
@@ -151,7 +195,6 @@ pub(crate) fn load_csv(
             angle_seen[k] = true;
             cols.push(Col::Angle(k, factor));
         } else if name == "weight" {
-            has_weight = true;
             cols.push(if values { Col::Weight } else { Col::Ignored });
         } else if let Some((q, suffix)) = parse_value_column(&name) {
             if !values {
@@ -213,54 +256,34 @@ pub(crate) fn load_csv(
             HEADER_FIX,
         ));
     }
-    let _ = has_weight;
-    let mut ds = Dataset::new(quantity.unwrap_or(Quantity::Brdf), channels);
-    ds.meta.comments = comments;
-    ds.meta.material = ds
-        .meta
-        .comments
-        .iter()
-        .find_map(|c| c.strip_prefix("material:").map(|m| m.trim().to_string()));
-    let nch = ds.channels.len();
-    let mut sink = RowSink::new(path, policy, ds);
-    let mut record = csv::StringRecord::new();
-    let mut vals = vec![0.0; nch];
+    Ok((cols, channels, quantity))
+}
+
+/// Leading comment and blank lines: their text (at most 1,000 lines of 500 characters) and
+/// how many lines they took.
+fn leading_comments(
+    path: &Path,
+    reader: &mut BufReader<std::fs::File>,
+) -> Result<(Vec<String>, u64), DataError> {
+    let mut comments = Vec::new();
+    let mut offset: u64 = 0;
     loop {
-        match rdr.read_record(&mut record) {
-            Ok(false) => break,
-            Ok(true) => {}
-            Err(e) => return Err(csv_error(path, offset, e)),
+        let buf = reader.fill_buf().map_err(|e| io_error(path, &e))?;
+        if buf.is_empty() || !(buf[0] == b'#' || buf[0] == b'\n' || buf[0] == b'\r') {
+            break;
         }
-        let line = offset + record.position().map_or(0, |p| p.line());
-        let mut angles = [0.0; 4];
-        let mut weight = None;
-        for (field, (col, name)) in record.iter().zip(cols.iter().zip(headers.iter())) {
-            match col {
-                Col::Angle(k, f) => {
-                    if field.is_empty() {
-                        return Err(DataError::new(
-                            path,
-                            Some(line),
-                            format!("column {name}: empty angle"),
-                            "every row needs all four angles",
-                        ));
-                    }
-                    angles[*k] = parse_number(path, line, name, field)? * f;
-                }
-                Col::Value(c) => {
-                    vals[*c] = if field.is_empty() {
-                        f64::NAN
-                    } else {
-                        parse_number(path, line, name, field)?
-                    };
-                }
-                Col::Weight => weight = Some(parse_number(path, line, name, field)?),
-                Col::Ignored => {}
-            }
+        let mut line = Vec::new();
+        reader
+            .read_until(b'\n', &mut line)
+            .map_err(|e| io_error(path, &e))?;
+        offset += 1;
+        let text = String::from_utf8_lossy(&line);
+        let t = text.trim_start_matches('#').trim();
+        if !t.is_empty() && comments.len() < 1000 {
+            comments.push(t.chars().take(500).collect::<String>());
         }
-        sink.push(line, angles, &vals, weight)?;
     }
-    sink.finish()
+    Ok((comments, offset))
 }
 
 fn csv_error(path: &Path, offset: u64, e: csv::Error) -> DataError {

@@ -1606,49 +1606,8 @@ fn global_init(full: &BrdfProblem, specs: &[&ParamSpec], opts: &FitOptions) -> V
     let ipd = kind
         .index_of(opts.dist, Role::Diffuse)
         .expect("every model has pd");
-    // Nonlinear free variables and their grids (thinned if their product is too large, as
-    // for a joint fit with per-channel shape parameters).
-    let mut nonlinear: Vec<(usize, Vec<f64>)> = (0..nfree)
-        .filter_map(|k| {
-            let g = specs[k].grid_values();
-            (!g.is_empty()).then_some((k, g))
-        })
-        .collect();
-    while nonlinear.iter().map(|(_, g)| g.len()).product::<usize>() > 4096 {
-        for (_, g) in nonlinear.iter_mut() {
-            *g = g.iter().step_by(2).copied().collect();
-        }
-    }
-    let dims: Vec<usize> = nonlinear.iter().map(|(_, g)| g.len()).collect();
-    let mut points: Vec<Vec<f64>> = vec![vec![]];
-    for (_, g) in &nonlinear {
-        points = points
-            .iter()
-            .flat_map(|pt| {
-                g.iter().map(move |v| {
-                    let mut q = pt.clone();
-                    q.push(*v);
-                    q
-                })
-            })
-            .collect();
-    }
-    // Per row: the data f_r and the weight that linearises the loss (parameter-free).
-    let (fdata, wdata): (Vec<f64>, Vec<f64>) = (0..p.rows.len())
-        .map(|i| {
-            let r = p.rows.get(i);
-            let fd = match opts.loss {
-                Loss::Log => r.target.exp_m1() / r.cos_i,
-                Loss::Linear => r.target,
-            };
-            let w = match opts.loss {
-                Loss::Log => (r.cos_i / (1.0 + r.cos_i * fd)).powi(2),
-                Loss::Linear => 1.0,
-            } * r.sw
-                * r.sw;
-            (fd, w)
-        })
-        .unzip();
+    let (nonlinear, dims, points) = grid_points(specs, nfree);
+    let (fdata, wdata) = linearised_data(&p, opts.loss);
     let wf: Vec<f64> = wdata.iter().zip(&fdata).map(|(w, f)| w * f).collect();
     // Per channel, the sums that do not depend on the grid point.
     let free_sums: Vec<[f64; 3]> = (0..p.layout.len())
@@ -1727,32 +1686,9 @@ fn global_init(full: &BrdfProblem, specs: &[&ParamSpec], opts: &FitOptions) -> V
                 free_sums[c],
                 (fixed_ps.unwrap_or(0.0), fixed_pd.unwrap_or(0.0)),
             );
-            let solve1 = |a: f64, b: f64| if a > 0.0 { (b / a).max(0.0) } else { 0.0 };
             let free_ps = ips.is_some() && fixed_ps.is_none();
             let free_pd = fixed_pd.is_none();
-            let (ps, pd) = match (free_ps, free_pd) {
-                (true, true) => {
-                    let det = a11 * a22 - a12 * a12;
-                    let (mut x1, mut x2) = if det > 1e-300 {
-                        ((b1 * a22 - b2 * a12) / det, (a11 * b2 - a12 * b1) / det)
-                    } else {
-                        (-1.0, -1.0)
-                    };
-                    if x1 < 0.0 || x2 < 0.0 || !x1.is_finite() || !x2.is_finite() {
-                        // Non-negative least squares with two unknowns: best of the faces.
-                        let c1 = (solve1(a11, b1), 0.0);
-                        let c2 = (0.0, solve1(a22, b2));
-                        let q = |(u, v): (f64, f64)| {
-                            a11 * u * u + 2.0 * a12 * u * v + a22 * v * v - 2.0 * (b1 * u + b2 * v)
-                        };
-                        (x1, x2) = if q(c1) <= q(c2) { c1 } else { c2 };
-                    }
-                    (x1, x2)
-                }
-                (true, false) => (solve1(a11, b1), 0.0),
-                (false, true) => (0.0, solve1(a22, b2)),
-                (false, false) => (0.0, 0.0),
-            };
+            let (ps, pd) = nonnegative_2x2([a11, a12, a22, b1, b2], (free_ps, free_pd));
             // The declared loss, minimised over (ps, pd) from the linear solve.
             let pi = std::f64::consts::FRAC_1_PI;
             let (fps, fpd) = (fixed_ps.unwrap_or(0.0), fixed_pd.unwrap_or(0.0) * pi);
@@ -1814,6 +1750,90 @@ fn global_init(full: &BrdfProblem, specs: &[&ParamSpec], opts: &FitOptions) -> V
         .into_iter()
         .map(|i| scored[i].1.clone())
         .collect()
+}
+
+/// The starting grid of the nonlinear free variables: which variables have a grid, the grid
+/// sizes, and every grid point (row-major). Grids are thinned while the product of their
+/// sizes exceeds 4,096 (a joint fit with per-channel shape parameters).
+fn grid_points(specs: &[&ParamSpec], nfree: usize) -> GridPoints {
+    let mut nonlinear: Vec<(usize, Vec<f64>)> = (0..nfree)
+        .filter_map(|k| {
+            let g = specs[k].grid_values();
+            (!g.is_empty()).then_some((k, g))
+        })
+        .collect();
+    while nonlinear.iter().map(|(_, g)| g.len()).product::<usize>() > 4096 {
+        for (_, g) in nonlinear.iter_mut() {
+            *g = g.iter().step_by(2).copied().collect();
+        }
+    }
+    let dims: Vec<usize> = nonlinear.iter().map(|(_, g)| g.len()).collect();
+    let mut points: Vec<Vec<f64>> = vec![vec![]];
+    for (_, g) in &nonlinear {
+        points = points
+            .iter()
+            .flat_map(|pt| {
+                g.iter().map(move |v| {
+                    let mut q = pt.clone();
+                    q.push(*v);
+                    q
+                })
+            })
+            .collect();
+    }
+    (nonlinear, dims, points)
+}
+
+/// Gridded variables with their values, the grid sizes, and the grid points.
+type GridPoints = (Vec<(usize, Vec<f64>)>, Vec<usize>, Vec<Vec<f64>>);
+
+/// Per row, the data f_r and the weight that linearises the loss around it (parameter-free):
+/// for the log loss r ≈ cosθi Δf / (1 + cosθi f), so w = (cosθi / (1 + cosθi f))².
+fn linearised_data(p: &BrdfProblem, loss: Loss) -> (Vec<f64>, Vec<f64>) {
+    (0..p.rows.len())
+        .map(|i| {
+            let r = p.rows.get(i);
+            let fd = match loss {
+                Loss::Log => r.target.exp_m1() / r.cos_i,
+                Loss::Linear => r.target,
+            };
+            let w = match loss {
+                Loss::Log => (r.cos_i / (1.0 + r.cos_i * fd)).powi(2),
+                Loss::Linear => 1.0,
+            } * r.sw
+                * r.sw;
+            (fd, w)
+        })
+        .unzip()
+}
+
+/// Non-negative least squares with two unknowns from the normal equations
+/// [a11 a12; a12 a22] x = [b1; b2]: the unconstrained solution if it is non-negative, else
+/// the better of the two faces. An unknown that is not free stays 0.
+fn nonnegative_2x2([a11, a12, a22, b1, b2]: [f64; 5], free: (bool, bool)) -> (f64, f64) {
+    let solve1 = |a: f64, b: f64| if a > 0.0 { (b / a).max(0.0) } else { 0.0 };
+    match free {
+        (true, true) => {
+            let det = a11 * a22 - a12 * a12;
+            let (x1, x2) = if det > 1e-300 {
+                ((b1 * a22 - b2 * a12) / det, (a11 * b2 - a12 * b1) / det)
+            } else {
+                (-1.0, -1.0)
+            };
+            if x1 >= 0.0 && x2 >= 0.0 && x1.is_finite() && x2.is_finite() {
+                return (x1, x2);
+            }
+            let c1 = (solve1(a11, b1), 0.0);
+            let c2 = (0.0, solve1(a22, b2));
+            let q = |(u, v): (f64, f64)| {
+                a11 * u * u + 2.0 * a12 * u * v + a22 * v * v - 2.0 * (b1 * u + b2 * v)
+            };
+            if q(c1) <= q(c2) { c1 } else { c2 }
+        }
+        (true, false) => (solve1(a11, b1), 0.0),
+        (false, true) => (0.0, solve1(a22, b2)),
+        (false, false) => (0.0, 0.0),
+    }
 }
 
 /// The local minima of a score tabulated on a grid (row-major over `dims`; a point is a
