@@ -646,9 +646,7 @@ pub fn write(
         std::fs::create_dir_all(&sub)?;
         for (k, (name, img)) in imgs.renders.iter().enumerate() {
             let base = sub.join(if k == 0 { "measured" } else { name.as_str() });
-            crate::render::save(img, &base)?;
-            wrote.push(base.with_extension("exr"));
-            wrote.push(base.with_extension("png"));
+            wrote.extend(crate::render::save(img, &base)?);
         }
         let sheet = sub.join("sheet.png");
         write_bytes_atomic(&sheet, &contact_sheet(case, imgs, &result.threshold)?)?;

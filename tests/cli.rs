@@ -396,7 +396,7 @@ fn eval_simulate_convert_end_to_end() {
             "-o",
             csv.to_str().unwrap(),
         ],
-        &["overwrite the input"],
+        &["overwrite an input"],
     );
     expect_error(
         &[
@@ -449,16 +449,7 @@ fn fit_command_end_to_end() {
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let n = v["params"]["n"].as_f64().unwrap();
     assert!((n - 1.8).abs() < 0.036, "n = {n}");
-    // An existing output is replaced only with --force.
-    expect_error(
-        &[
-            "fit",
-            "data/blinn-mgo.csv",
-            "--json",
-            json.to_str().unwrap(),
-        ],
-        &["the output exists", "--force"],
-    );
+    // An existing output is replaced (one rule for every command), and the command says so.
     let o = brdfit(&[
         "fit",
         "data/blinn-mgo.csv",
@@ -466,8 +457,12 @@ fn fit_command_end_to_end() {
         "all",
         "--json",
         json.to_str().unwrap(),
-        "--force",
     ]);
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains(&format!("wrote {}", json.display())),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     assert!(o.status.success());
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(
@@ -556,7 +551,6 @@ fn export_completions_and_batch() {
         bad.to_str().unwrap(),
         "--summary",
         sum.to_str().unwrap(),
-        "--force",
     ]);
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("angle columns need a unit"));
@@ -570,7 +564,6 @@ fn export_completions_and_batch() {
         odd.to_str().unwrap(),
         "--summary",
         sum.to_str().unwrap(),
-        "--force",
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let mut r = csv::Reader::from_path(&sum).unwrap();
@@ -768,4 +761,66 @@ fn errors_print_once_with_the_flag() {
     assert_eq!(err.matches("error:").count(), 1, "{err}");
     assert!(err.contains("0 usable samples"), "{err}");
     assert!(err.contains("on the command line: --max-theta"), "{err}");
+}
+
+/// The README's tour, run twice in a row in an empty folder: every command succeeds both
+/// times (an existing output is replaced), and every command that writes says `wrote PATH`.
+#[test]
+fn readme_tour_runs_twice() {
+    let root = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
+    let tour = readme.split("## A short tour").nth(1).unwrap();
+    let block = tour
+        .split("```sh")
+        .nth(1)
+        .unwrap()
+        .split("```")
+        .next()
+        .unwrap();
+    let commands: Vec<Vec<String>> = block
+        .lines()
+        .filter_map(|l| {
+            l.split('#')
+                .next()
+                .unwrap()
+                .trim()
+                .strip_prefix("cargo run --release --")
+        })
+        .map(|rest| {
+            rest.split_whitespace()
+                .map(|a| match a.strip_prefix("data/") {
+                    Some(f) => root.join("data").join(f).display().to_string(),
+                    None => a.to_string(),
+                })
+                .collect()
+        })
+        .collect();
+    assert!(commands.len() >= 6, "{commands:?}");
+    let dir = tempfile::tempdir().unwrap();
+    for round in 0..2 {
+        for args in &commands {
+            let o = Command::new(env!("CARGO_BIN_EXE_brdfit"))
+                .args(args)
+                .current_dir(dir.path())
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert!(o.status.success(), "round {round}: {args:?}: {err}");
+            let writes = args.iter().any(|a| a == "-o" || a == "--json");
+            let prints_to_stdout = args[0] == "export" && !args.iter().any(|a| a == "-o");
+            if writes && !prints_to_stdout {
+                assert!(
+                    err.contains("wrote "),
+                    "round {round}: {args:?} says nothing of its files: {err}"
+                );
+                for line in err.lines().filter_map(|l| l.strip_prefix("wrote ")) {
+                    let p = dir.path().join(line.split(" (").next().unwrap());
+                    assert!(
+                        p.exists(),
+                        "{args:?} says it wrote {line}, which is missing"
+                    );
+                }
+            }
+        }
+    }
 }

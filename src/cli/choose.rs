@@ -96,12 +96,10 @@ pub(crate) fn run_choose(a: ChooseArgs) -> Result<()> {
             }
         },
     )?;
-    let wrote = choose::write(&a.output, &result, &images)?;
+    let written = choose::write(&a.output, &result, &images)?;
     print(&choose::markdown(&result))?;
+    wrote_all(&written);
     if !quiet {
-        for p in &wrote {
-            eprintln!("wrote {}", p.display());
-        }
         eprintln!("done in {:.1} s", t.elapsed().as_secs_f64());
     }
     Ok(())

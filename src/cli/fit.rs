@@ -1,7 +1,7 @@
 //! `brdfit fit`: parse, call the library, print the table and write the JSON and summary.
 
 use super::*;
-use anyhow::{Context, Result, anyhow, bail};
+use anyhow::{Result, anyhow};
 use brdfit::model::{Distribution, ModelKind};
 use std::path::Path;
 
@@ -75,13 +75,10 @@ pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
         }
     }
     if let Some(path) = &a.json {
-        guard(path)?;
-        if a.files.iter().any(|f| same_file(f, path)) {
-            bail!(
-                "{}: the output would overwrite an input\n  fix: choose another output path",
-                path.display()
-            );
-        }
+        refuse_input(
+            path,
+            &a.files.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
+        )?;
         let flat: Vec<&brdfit::fit::FitResult> = all.iter().flat_map(|(_, f)| f).collect();
         let v = if flat.len() == 1 {
             flat[0].to_json()
@@ -89,17 +86,13 @@ pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
             serde_json::json!({ "fits": flat.iter().map(|f| f.to_json()).collect::<Vec<_>>() })
         };
         let s = serde_json::to_string_pretty(&v)? + "\n";
-        brdfit::output::write_bytes_atomic(path, s.as_bytes())
-            .with_context(|| format!("writing {}", path.display()))?;
+        write_file(path, s.as_bytes())?;
     }
     if let Some(path) = &a.summary {
-        guard(path)?;
-        if a.files.iter().any(|f| same_file(f, path)) {
-            bail!(
-                "{}: the output would overwrite an input\n  fix: choose another output path",
-                path.display()
-            );
-        }
+        refuse_input(
+            path,
+            &a.files.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
+        )?;
         let text = if path.extension().is_some_and(|e| e == "json") {
             let rows: Vec<serde_json::Value> = all
                 .iter()
@@ -144,8 +137,7 @@ pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
             }
             String::from_utf8(w.into_inner().map_err(|e| anyhow!("{e}"))?)?
         };
-        brdfit::output::write_bytes_atomic(path, text.as_bytes())
-            .with_context(|| format!("writing {}", path.display()))?;
+        write_file(path, text.as_bytes())?;
     }
     match first_err {
         Some(e) => Err(e),

@@ -149,7 +149,7 @@ pub(crate) fn run_inverse(args: InverseArgs) -> Result<()> {
         None => inverse::invert_line(&vals, proj(&light), ca, cd, pixel_size, prior),
     };
     let base = output.with_extension("");
-    brdfit::output::write_bytes_atomic(
+    write_file(
         &base.with_extension("csv"),
         inverse::to_csv(&px, &pos).as_bytes(),
     )?;
@@ -181,7 +181,7 @@ pub(crate) fn run_inverse(args: InverseArgs) -> Result<()> {
         log_y: false,
         hline: None,
     };
-    brdfit::plot::save(&chart, &base)?;
+    save_chart(&chart, &base)?;
     let flagged = px.iter().filter(|p| p.flagged).count();
     if flagged > 0 {
         eprintln!(

@@ -37,14 +37,10 @@ pub(crate) fn run_eval(args: EvalArgs) -> Result<()> {
     out.meta.comments = vec![format!("brdfit eval: {m}")];
     match output {
         Some(p) => {
-            guard(&p)?;
-            if same_file(&directions, &p) {
-                bail!(
-                    "{}: the output would overwrite the input\n  fix: choose another output path",
-                    p.display()
-                );
-            }
-            Ok(data::write_csv(&out, &p)?)
+            refuse_input(&p, &[&directions])?;
+            data::write_csv(&out, &p)?;
+            wrote(&p);
+            Ok(())
         }
         None => {
             let mut buf = Vec::new();
@@ -104,6 +100,7 @@ pub(crate) fn run_simulate(args: SimulateArgs) -> Result<()> {
         "angles in degrees; f_r in 1/sr; mirror direction is phi_o = phi_i + 180".into(),
     ];
     data::write_csv(&ds, &output)?;
+    wrote(&output);
     Ok(())
 }
 
@@ -144,23 +141,19 @@ pub(crate) fn run_export(args: ExportArgs) -> Result<()> {
     match (text, output) {
         (Some(t), None) => print(&t),
         (Some(t), Some(o)) => {
-            guard(&o)?;
-            Ok(brdfit::output::write_bytes_atomic(&o, t.as_bytes())?)
+            refuse_input(&o, &[&fit])?;
+            write_file(&o, t.as_bytes())?;
+            Ok(())
         }
         (None, None) => bail!("--to {to} writes a file\n  fix: add -o OUT"),
         (None, Some(o)) => {
-            guard(&o)?;
-            if same_file(&fit, &o) {
-                bail!(
-                    "{}: the output would overwrite the input\n  fix: choose another output path",
-                    o.display()
-                );
-            }
+            refuse_input(&o, &[&fit])?;
             if fmt == ExportFormat::Merl {
                 data::merl::write_merl(&export::merl_dataset(&m), &o)?;
             } else {
                 data::write_csv(&export::grid_dataset(&m), &o)?;
             }
+            wrote(&o);
             Ok(())
         }
     }
@@ -196,17 +189,12 @@ pub(crate) fn run_convert(args: ConvertArgs) -> Result<()> {
         Some(t) => bail!("unknown output format '{t}'\n  fix: use --to csv or --to merl"),
         None => Format::from_extension(&output) == Some(Format::Merl),
     };
-    if same_file(&input, &output) {
-        bail!(
-            "{}: the output would overwrite the input\n  fix: choose another output path",
-            output.display()
-        );
-    }
-    guard(&output)?;
+    refuse_input(&output, &[&input])?;
     if to_merl {
         data::merl::write_merl(&ds, &output)?;
     } else {
         data::write_csv(&ds, &output)?;
     }
+    wrote(&output);
     Ok(())
 }

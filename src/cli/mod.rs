@@ -34,9 +34,6 @@ use std::process::ExitCode;
 pub(crate) struct Cli {
     #[command(subcommand)]
     pub(crate) command: Command,
-    /// Replace existing output files (directories such as reports/ are always regenerated).
-    #[arg(long, global = true)]
-    pub(crate) force: bool,
     /// No progress bars or notes on stderr.
     #[arg(long, short, global = true)]
     pub(crate) quiet: bool,
@@ -45,27 +42,56 @@ pub(crate) struct Cli {
     pub(crate) verbose: bool,
 }
 
-pub(crate) static FORCE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-
 pub(crate) static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
 pub(crate) static VERBOSE: std::sync::atomic::AtomicBool =
     std::sync::atomic::AtomicBool::new(false);
 
-/// Refuse to replace an existing output file unless --force was given.
-pub(crate) fn guard(path: &Path) -> Result<()> {
-    if path.exists() && !FORCE.load(std::sync::atomic::Ordering::Relaxed) {
-        if path.is_dir() {
-            bail!(
-                "{}: is a directory\n  fix: give a file name",
-                path.display()
-            );
-        }
+/// Announce a file the command wrote, on stderr (`wrote PATH`), unless --quiet. The one rule
+/// for outputs: an existing file is replaced (atomically), an output that is one of the
+/// inputs is refused, and missing parent folders are created.
+pub(crate) fn wrote(path: &Path) {
+    if !quiet() {
+        eprintln!("wrote {}", path.display());
+    }
+}
+
+/// Refuse an output path that is one of the inputs (brdfit never modifies an input).
+pub(crate) fn refuse_input(output: &Path, inputs: &[&Path]) -> Result<()> {
+    if inputs.iter().any(|i| same_file(i, output)) {
         bail!(
-            "{}: the output exists\n  fix: choose another name, or add --force to replace it",
-            path.display()
+            "{}: the output would overwrite an input\n  fix: choose another output path",
+            output.display()
         );
     }
+    Ok(())
+}
+
+/// [`wrote`] for each path.
+pub(crate) fn wrote_all<'a>(paths: impl IntoIterator<Item = &'a PathBuf>) {
+    for p in paths {
+        wrote(p);
+    }
+}
+
+/// Save a chart as `base.svg` and `base.png` and announce both.
+pub(crate) fn save_chart(chart: &impl brdfit::plot::Chart, base: &Path) -> Result<()> {
+    let (svg, png) = brdfit::plot::save(chart, base)?;
+    wrote_all([&svg, &png]);
+    Ok(())
+}
+
+/// Save an image as `base.png` and `base.exr` and announce both.
+pub(crate) fn save_image(img: &brdfit::render::Image, base: &Path) -> Result<()> {
+    wrote_all(&brdfit::render::save(img, base)?);
+    Ok(())
+}
+
+/// Write bytes atomically and announce the file.
+pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+    brdfit::output::write_bytes_atomic(path, bytes)
+        .with_context(|| format!("writing {}", path.display()))?;
+    wrote(path);
     Ok(())
 }
 
@@ -257,7 +283,6 @@ pub(crate) fn main() -> ExitCode {
     let _ = rayon::current_num_threads();
     let cli = match Cli::try_parse() {
         Ok(c) => {
-            FORCE.store(c.force, std::sync::atomic::Ordering::Relaxed);
             QUIET.store(c.quiet, std::sync::atomic::Ordering::Relaxed);
             VERBOSE.store(c.verbose && !c.quiet, std::sync::atomic::Ordering::Relaxed);
             c

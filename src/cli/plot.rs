@@ -151,12 +151,12 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                 log,
                 tolerance,
             );
-            plot::save(&chart, &base(&output))?;
+            save_chart(&chart, &base(&output))?;
             Ok(())
         }
         PlotCommand::BlinnFigures { output } => {
-            plot::save(&plot::blinn_figure(30.0, 5), &output.join("figure5"))?;
-            plot::save(&plot::blinn_figure(70.0, 6), &output.join("figure6"))?;
+            save_chart(&plot::blinn_figure(30.0, 5), &output.join("figure5"))?;
+            save_chart(&plot::blinn_figure(70.0, 6), &output.join("figure6"))?;
             Ok(())
         }
         PlotCommand::Residuals {
@@ -174,7 +174,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                 r.loss == brdfit::fit::problem::Loss::Log,
             );
             for (name, chart) in plot::residual_charts(&r.label(), &pts) {
-                plot::save(&chart, &output.join(name))?;
+                save_chart(&chart, &output.join(name))?;
             }
             Ok(())
         }
@@ -193,7 +193,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                 n: bins.clamp(2, 360),
                 images: [d, f],
             };
-            plot::save(&chart, &base(&output))?;
+            save_chart(&chart, &base(&output))?;
             Ok(())
         }
         PlotCommand::Albedo { fit, model, output } => {
@@ -206,7 +206,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                 (None, None) => bail!("no model\n  fix: give --fit FILE or --model with --set"),
             };
             let (chart, pts) = plot::albedo_chart(&label, &m);
-            plot::save(&chart, &base(&output))?;
+            save_chart(&chart, &base(&output))?;
             let worst = pts
                 .iter()
                 .cloned()

@@ -50,12 +50,9 @@ pub(crate) fn run_render(
             },
         );
         for (name, img) in &imgs {
-            render::save(img, &output.join(name))?;
+            save_image(img, &output.join(name))?;
         }
-        brdfit::output::write_bytes_atomic(
-            &output.join("fig7.png"),
-            &render::contact_sheet(&imgs)?,
-        )?;
+        write_file(&output.join("fig7.png"), &render::contact_sheet(&imgs)?)?;
         if !quiet {
             eprintln!(
                 "rendered 8 images {res}×{res} in {:.2} s",
@@ -87,7 +84,6 @@ pub(crate) fn run_render(
         Some("png" | "exr") => output.with_extension(""),
         _ => output.to_path_buf(),
     };
-    guard(&base.with_extension("png"))?;
-    render::save(&img, &base)?;
+    save_image(&img, &base)?;
     Ok(())
 }

@@ -32,12 +32,30 @@ pub(crate) fn run_report(
             verbose: !quiet,
         },
     )?;
+    // The four files a reader opens; the rest (charts, renders, CSV) are counted.
+    let main = ["index.html", "report.md", "results.json", "timings.json"];
+    for f in main {
+        wrote(&output.join(f));
+    }
     if !quiet {
         eprintln!(
-            "report written to {}/index.html in {:.1} s",
+            "wrote {} more files under {} (charts, renders, tables); report in {:.1} s",
+            count_files(output).saturating_sub(main.len()),
             output.display(),
             t.elapsed().as_secs_f64()
         );
     }
     Ok(())
+}
+
+/// Files under `dir`, recursively.
+fn count_files(dir: &Path) -> usize {
+    std::fs::read_dir(dir).map_or(0, |rd| {
+        rd.flatten()
+            .map(|e| {
+                let p = e.path();
+                if p.is_dir() { count_files(&p) } else { 1 }
+            })
+            .sum()
+    })
 }

@@ -76,11 +76,11 @@ pub(crate) fn write_study_tables(
     md: &str,
     csv: &str,
 ) -> Result<()> {
-    brdfit::output::write_bytes_atomic(
+    write_file(
         &output.join(format!("{name}.md")),
         format!("# {title}\n\n{md}").as_bytes(),
     )?;
-    brdfit::output::write_bytes_atomic(&output.join(format!("{name}.csv")), csv.as_bytes())?;
+    write_file(&output.join(format!("{name}.csv")), csv.as_bytes())?;
     Ok(())
 }
 
@@ -96,7 +96,7 @@ pub(crate) fn study_input(data: &Path, load: &LoadArgs) -> Result<Dataset> {
 }
 
 pub(crate) fn run_study(cmd: StudyCommand) -> Result<()> {
-    use brdfit::{plot, study};
+    use brdfit::study;
     match cmd {
         StudyCommand::SpeedAccuracy {
             data,
@@ -120,7 +120,7 @@ pub(crate) fn run_study(cmd: StudyCommand) -> Result<()> {
                 None => {}
             }
             let title = format!("Speed against accuracy: {}", data.display());
-            plot::save(
+            save_chart(
                 &study::speed_chart(&title, &rows, false),
                 &output.join("speed-accuracy"),
             )?;
@@ -138,11 +138,11 @@ pub(crate) fn run_study(cmd: StudyCommand) -> Result<()> {
                 None => format!("Figure 7 scenes, {res}×{res}"),
             };
             let title = format!("Anti-aliasing: image error against rays per pixel ({what})");
-            plot::save(
+            save_chart(
                 &study::render_chart(&title, &rows, false),
                 &output.join("render-study"),
             )?;
-            plot::save(
+            save_chart(
                 &study::render_chart(&title, &rows, true),
                 &output.join("render-study-time"),
             )?;
@@ -177,7 +177,7 @@ pub(crate) fn run_study(cmd: StudyCommand) -> Result<()> {
             );
             bar.finish_and_clear();
             let title = format!("Stability from {starts} random starts around {reference}");
-            plot::save(
+            save_chart(
                 &study::stability_chart(&title, &rows),
                 &output.join("stability"),
             )?;

@@ -1177,8 +1177,8 @@ pub fn to_srgb8(img: &Image) -> Vec<u8> {
         .collect()
 }
 
-/// Write `base.png` (sRGB 8-bit) and `base.exr` (linear f32), atomically.
-pub fn save(img: &Image, base: &std::path::Path) -> anyhow::Result<()> {
+/// Write `base.png` (sRGB 8-bit) and `base.exr` (linear f32), atomically; returns both paths.
+pub fn save(img: &Image, base: &std::path::Path) -> anyhow::Result<[std::path::PathBuf; 2]> {
     let png = crate::plot::encode_png(img.width, img.height, &to_srgb8(img))?;
     crate::output::write_bytes_atomic(&base.with_extension("png"), &png)?;
     let mut exr = std::io::Cursor::new(Vec::new());
@@ -1189,7 +1189,7 @@ pub fn save(img: &Image, base: &std::path::Path) -> anyhow::Result<()> {
         .write_to(&mut exr, image::ImageFormat::OpenExr)
         .map_err(|e| anyhow::anyhow!("EXR encoding failed: {e}"))?;
     crate::output::write_bytes_atomic(&base.with_extension("exr"), exr.get_ref())?;
-    Ok(())
+    Ok([base.with_extension("png"), base.with_extension("exr")])
 }
 
 /// Root-mean-square difference of two linear images (all channels).
