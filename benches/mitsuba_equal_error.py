@@ -101,7 +101,7 @@ def brdfit(aa, runs, tmp):
     open(path, "w").write(toml)
     times = []
     for _ in range(runs):
-        r = subprocess.run([BRDFIT, "render", path, "-o", os.path.join(tmp, "img.png"), "--force"],
+        r = subprocess.run([BRDFIT, "render", path, "-o", os.path.join(tmp, "img.png")],
                            capture_output=True, text=True, check=True,
                            env=dict(os.environ, RAYON_NUM_THREADS=str(THREADS)))
         m = re.search(r"in ([0-9.]+) s: ([0-9.]+) primary", r.stderr)
