@@ -206,14 +206,32 @@ pub(crate) fn fit_one(
     }
     let mut text = String::new();
     let nch = all[0].len();
-    for c in 0..nch {
+    if nch > 1 && !VERBOSE.load(std::sync::atomic::Ordering::Relaxed) {
+        // A multi-channel file: one table per model, a row per channel (--verbose: each fit
+        // in full), then the recommendation per channel.
         for fits in &all {
-            text.push_str(&fit::format_fit(&fits[c]));
+            text.push_str(&fit::format_channels(fits));
         }
         if all.len() > 1 {
-            let row: Vec<fit::FitResult> = all.iter().map(|f| f[c].clone()).collect();
-            text.push_str(&format!("model comparison, channel {}:\n", row[0].channel));
-            text.push_str(&fit::format_ranking(&row));
+            text.push_str("recommended (fewest parameters within 2 BIC of the best):\n");
+            for c in 0..nch {
+                let row: Vec<fit::FitResult> = all.iter().map(|f| f[c].clone()).collect();
+                let (_, rec) = fit::rank(&row);
+                let name = rec.map_or("none usable".into(), |r| row[r].label());
+                text.push_str(&format!("  {:<10} {name}\n", row[0].channel));
+            }
+        }
+        text.push_str("(each fit in full: --verbose or --json)\n");
+    } else {
+        for c in 0..nch {
+            for fits in &all {
+                text.push_str(&fit::format_fit(&fits[c]));
+            }
+            if all.len() > 1 {
+                let row: Vec<fit::FitResult> = all.iter().map(|f| f[c].clone()).collect();
+                text.push_str(&format!("model comparison, channel {}:\n", row[0].channel));
+                text.push_str(&fit::format_ranking(&row));
+            }
         }
     }
     Ok((text, all.into_iter().flatten().collect()))

@@ -2146,6 +2146,65 @@ pub fn format_fit(f: &FitResult) -> String {
     s
 }
 
+/// One model's fits to the channels of a file as one table, a row per channel: the
+/// parameters (4 significant digits), cost, rmse and short flags (`bound:NAME`,
+/// `weak:NAME` for a parameter only weakly determined, `NOT USABLE`). `format_fit` gives the
+/// full detail of one channel.
+pub fn format_channels(fits: &[FitResult]) -> String {
+    use std::fmt::Write;
+    let Some(first) = fits.first() else {
+        return String::new();
+    };
+    let names = first.model.param_names(first.dist);
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{}: {} loss, {}, {} channels ({} samples each)",
+        first.label(),
+        first.loss.name(),
+        first.method.name(),
+        fits.len(),
+        first.samples_used
+    );
+    let _ = write!(s, "  {:<10}", "channel");
+    for n in &names {
+        let _ = write!(s, " {n:>10}");
+    }
+    let _ = writeln!(s, " {:>12} {:>10}  flags", "cost", "rmse");
+    for f in fits {
+        let _ = write!(s, "  {:<10}", f.channel);
+        for (_, v) in f.params.iter().take(names.len()) {
+            let _ = write!(s, " {:>10}", crate::model::readable(*v));
+        }
+        let mut flags: Vec<String> = f
+            .at_bound
+            .iter()
+            .map(|(n, _)| format!("bound:{n}"))
+            .collect();
+        flags.extend(
+            f.ranges
+                .iter()
+                .filter(|r| {
+                    f.warnings
+                        .iter()
+                        .any(|w| w.starts_with(&format!("{} ", r.0)))
+                })
+                .map(|r| format!("weak:{}", r.0)),
+        );
+        if !f.usable() {
+            flags.push("NOT USABLE".into());
+        }
+        let _ = writeln!(
+            s,
+            " {:>12.6e} {:>10.4e}  {}",
+            f.cost,
+            f.rmse,
+            flags.join(" ")
+        );
+    }
+    s
+}
+
 /// The model-comparison table of one channel.
 pub fn format_ranking(fits: &[FitResult]) -> String {
     use std::fmt::Write;
