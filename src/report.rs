@@ -159,9 +159,7 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
     let mut results = Vec::new();
     let mut timings = serde_json::Map::new();
     let mut toc = Vec::new();
-    let t = Instant::now();
-    blinn_figures(&mut doc, root, opts)?;
-    timings.insert("blinn_figures".into(), json!(t.elapsed().as_secs_f64()));
+    let mut summary = Vec::new();
     for file in files {
         let t0 = Instant::now();
         let name = file
@@ -196,7 +194,8 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
         tm.insert("renders".into(), json!(t.elapsed().as_secs_f64()));
         say(opts, &format!("{name}: what each scene needs"));
         let t = Instant::now();
-        scene_needs(&mut doc, &set)?;
+        let needs = scene_needs(&mut doc, &set)?;
+        summary.push(summary_row(&set, &channel_note, &fits, rec, &needs));
         tm.insert("choose".into(), json!(t.elapsed().as_secs_f64()));
         say(opts, &format!("{name}: studies"));
         let t = Instant::now();
@@ -205,7 +204,79 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
         tm.insert("total".into(), json!(t0.elapsed().as_secs_f64()));
         timings.insert(name.clone(), Value::Object(tm));
     }
-    assemble(root, &doc, &toc, results, timings, t_all)
+    // Blinn's figures after the user's data.
+    let t = Instant::now();
+    let mut blinn = Doc::default();
+    blinn_figures(&mut blinn, root, opts)?;
+    doc.html.push_str(&blinn.html);
+    doc.md.push_str(&blinn.md);
+    timings.insert("blinn_figures".into(), json!(t.elapsed().as_secs_f64()));
+    assemble(root, &doc, &toc, &summary, results, timings, t_all)
+}
+
+/// One row of the report's opening summary: data set, channel, recommended model with its
+/// parameters ± standard error, verification, short flags, and what each Figure 7 scene needs.
+fn summary_row(
+    set: &DataSet,
+    channel: &str,
+    fits: &[FitResult],
+    rec: usize,
+    needs: &[String],
+) -> Vec<String> {
+    let f = &fits[rec];
+    let params: Vec<String> = f
+        .params
+        .iter()
+        .zip(&f.stderr)
+        .map(|((n, v), e)| {
+            if e.is_finite() && *e > 0.0 && *e <= 10.0 * v.abs() {
+                format!(
+                    "{n} {} ± {}",
+                    crate::model::readable(*v),
+                    crate::model::readable(*e)
+                )
+            } else {
+                format!("{n} {}", crate::model::readable(*v))
+            }
+        })
+        .collect();
+    let verified = fits
+        .iter()
+        .filter(|f| f.verification.as_ref().is_some_and(|v| v.verified))
+        .count();
+    let mut flags: Vec<String> = f
+        .at_bound
+        .iter()
+        .map(|(n, _)| format!("bound:{n}"))
+        .collect();
+    flags.extend(
+        f.ranges
+            .iter()
+            .filter(|r| {
+                f.warnings
+                    .iter()
+                    .any(|w| w.starts_with(&format!("{} ", r.0)))
+            })
+            .map(|r| format!("weak:{}", r.0)),
+    );
+    let unusable = fits.iter().filter(|f| !f.usable()).count();
+    if unusable > 0 {
+        flags.push(format!("{unusable} fit(s) not usable"));
+    }
+    vec![
+        set.name.clone(),
+        channel.trim_start_matches("the ").to_string(),
+        if f.usable() {
+            f.label()
+        } else {
+            "none usable".into()
+        },
+        params.join(", "),
+        format!("{verified}/{} fits", fits.len()),
+        flags.join(" "),
+        needs.first().cloned().unwrap_or_default(),
+        needs.get(1).cloned().unwrap_or_default(),
+    ]
 }
 
 fn say(opts: &ReportOptions, m: &str) {
@@ -496,7 +567,7 @@ fn renders(doc: &mut Doc, set: &DataSet, ts: &FitResult) -> Result<()> {
 
 /// What each scene needs: `brdfit choose` on Blinn's Figure 7 cases at 512², its sheet and
 /// chart per case.
-fn scene_needs(doc: &mut Doc, set: &DataSet) -> Result<()> {
+fn scene_needs(doc: &mut Doc, set: &DataSet) -> Result<Vec<String>> {
     let (name, root, dir) = (&set.name, set.root, &set.name);
     doc.h(3, "What each scene needs", &format!("{name}-choose"));
     let (r, images) = crate::choose::choose(
@@ -551,7 +622,13 @@ fn scene_needs(doc: &mut Doc, set: &DataSet) -> Result<()> {
         &format!("{dir}/choose/choose.json"),
         "the choice as JSON (choose.json)",
     );
-    Ok(())
+    Ok(r.cases
+        .iter()
+        .map(|c| match &c.chosen {
+            Some(m) => m.clone(),
+            None => format!("none (closest {})", c.closest),
+        })
+        .collect())
 }
 
 /// Speed against accuracy and stability from random starts.
@@ -617,21 +694,57 @@ fn assemble(
     root: &Path,
     doc: &Doc,
     toc: &[(String, String)],
+    summary: &[Vec<String>],
     results: Vec<Value>,
     mut timings: serde_json::Map<String, Value>,
     t_all: Instant,
 ) -> Result<()> {
     let mut html = String::from(
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>brdfit report</title>\n<style>\nbody{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}\ntable{border-collapse:collapse;margin:0.5em 0}\ntd,th{border:1px solid #bbb;padding:3px 8px;text-align:left}\nimg{max-width:100%}\nfigure{margin:1em 0}\nfigure.small{display:inline-block;width:24%;margin:0.3em}\npre{background:#f4f4f4;padding:0.6em}\n</style>\n</head>\n<body>\n<h1>brdfit report</h1>\n",
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>brdfit report</title>\n<style>\nbody{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}\ntable{border-collapse:collapse;margin:0.5em 0}\ntd,th{border:1px solid #bbb;padding:3px 8px;text-align:left}\nimg{max-width:100%}\nfigure{margin:1em 0}\nfigure.small{display:inline-block;width:24%;margin:0.3em}\npre{background:#f4f4f4;padding:0.6em;overflow-x:auto}\n</style>\n</head>\n<body>\n<h1>brdfit report</h1>\n",
     );
     let mut md = String::from("# brdfit report\n\n");
-    html.push_str("<p>Fits of reflection models to the measured samples below, with uncertainties, the model comparison, plots against the data, renders of the fitted materials and the method studies. Every fit is in <a href=\"results.json\">results.json</a>; run times are only in <a href=\"timings.json\">timings.json</a>. The same content as Markdown: <a href=\"report.md\">report.md</a>.</p>\n<ul>\n<li><a href=\"#blinn\">Blinn 1977, Figures 5–7</a></li>\n");
-    md.push_str("Every fit is in [results.json](results.json); run times are only in [timings.json](timings.json).\n\n- [Blinn 1977, Figures 5–7](#blinn-1977-figures-57)\n");
+    let head = [
+        "data set",
+        "channel",
+        "recommended (fewest parameters within 2 BIC)",
+        "parameters ± standard error",
+        "verified by 8 random starts",
+        "flags",
+        "front lit needs",
+        "edge lit needs",
+    ];
+    html.push_str("<p>The answer for each data set first: the model its data support, and the simplest model each lighting of Blinn's Figure 7 needs (judged by images, ꟻLIP p99 ≤ 0.05). Flags: <code>weak:NAME</code> a parameter only weakly determined by the data, <code>bound:NAME</code> on a bound. Details per data set follow, then Blinn's Figures 5–7. Every fit is in <a href=\"results.json\">results.json</a>; run times in <a href=\"timings.json\">timings.json</a>; the same content as Markdown in <a href=\"report.md\">report.md</a>.</p>\n<table>\n<tr>");
+    md.push_str("The answer for each data set first; details per data set follow, then Blinn's Figures 5–7. Every fit is in [results.json](results.json); run times in [timings.json](timings.json).\n\n");
+    for h in head {
+        let _ = write!(html, "<th>{}</th>", esc(h));
+    }
+    html.push_str("</tr>\n");
+    let _ = writeln!(
+        md,
+        "| {} |\n|{}",
+        head.join(" | "),
+        "---|".repeat(head.len())
+    );
+    for r in summary {
+        html.push_str("<tr>");
+        for (k, c) in r.iter().enumerate() {
+            if k == 0 {
+                let _ = write!(html, "<td><a href=\"#{0}\">{0}</a></td>", esc(c));
+            } else {
+                let _ = write!(html, "<td>{}</td>", esc(c));
+            }
+        }
+        html.push_str("</tr>\n");
+        let _ = writeln!(md, "| {} |", r.join(" | "));
+    }
+    html.push_str("</table>\n<ul>\n");
+    md.push('\n');
     for (name, id) in toc {
         let _ = writeln!(html, "<li><a href=\"#{id}\">{}</a></li>", esc(name));
         let _ = writeln!(md, "- {name}");
     }
-    html.push_str("</ul>\n");
+    html.push_str("<li><a href=\"#blinn\">Blinn 1977, Figures 5–7</a></li>\n</ul>\n");
+    md.push_str("- [Blinn 1977, Figures 5–7](#blinn-1977-figures-57)\n\n");
     html.push_str(&doc.html);
     html.push_str("</body>\n</html>\n");
     md.push_str(&doc.md);
