@@ -55,11 +55,150 @@ pub fn save(chart: &impl Chart, base: &Path) -> Result<(PathBuf, PathBuf)> {
         chart.draw(&root)?;
         root.present().map_err(err)?;
     }
+    let svg = svg_text_to_paths(&svg);
     let svg_path = base.with_extension("svg");
     let png_path = base.with_extension("png");
     write_bytes_atomic(&svg_path, svg.as_bytes())?;
     write_bytes_atomic(&png_path, &encode_png(w, h, &px)?)?;
     Ok((svg_path, png_path))
+}
+
+/// Replace every `<text>` element plotters writes with a `<path>` of the embedded font's
+/// glyph outlines, so an SVG looks the same on every machine without the font installed.
+/// Handles what plotters emits: `x`, `y`, `dy` in em or ex, `text-anchor`, `font-size`,
+/// `fill`, `opacity` and `transform`.
+pub fn svg_text_to_paths(svg: &str) -> String {
+    use ab_glyph::{Font, FontRef, OutlineCurve};
+    let Ok(font) = FontRef::try_from_slice(FONT) else {
+        return svg.to_string();
+    };
+    let upem = font.units_per_em().unwrap_or(2048.0);
+    let attr = |tag: &str, name: &str| -> Option<String> {
+        let key = format!(" {name}=\"");
+        let i = tag.find(&key)? + key.len();
+        Some(tag[i..i + tag[i..].find('"')?].to_string())
+    };
+    let mut out = String::with_capacity(svg.len());
+    let mut rest = svg;
+    while let Some(i) = rest.find("<text") {
+        out.push_str(&rest[..i]);
+        let Some(open_end) = rest[i..].find('>').map(|e| i + e + 1) else {
+            break;
+        };
+        let Some(close) = rest[open_end..].find("</text>").map(|e| open_end + e) else {
+            break;
+        };
+        let tag = &rest[i..open_end];
+        let content = rest[open_end..close]
+            .trim()
+            .replace("&lt;", "<")
+            .replace("&gt;", ">")
+            .replace("&quot;", "\"")
+            .replace("&apos;", "'")
+            .replace("&amp;", "&");
+        rest = &rest[close + "</text>".len()..];
+        let num = |n: &str, d: f32| {
+            attr(tag, n)
+                .and_then(|v| v.parse::<f32>().ok())
+                .unwrap_or(d)
+        };
+        let size = num("font-size", 12.0);
+        let k = size / upem;
+        let dy = attr(tag, "dy").map_or(0.0, |v| {
+            if let Some(e) = v.strip_suffix("em") {
+                e.parse::<f32>().unwrap_or(0.0) * size
+            } else if let Some(e) = v.strip_suffix("ex") {
+                // DejaVu Sans' x-height is 0.545 em.
+                e.parse::<f32>().unwrap_or(0.0) * 0.545 * size
+            } else {
+                v.parse().unwrap_or(0.0)
+            }
+        });
+        let ids: Vec<_> = content.chars().map(|c| font.glyph_id(c)).collect();
+        let mut advance = Vec::with_capacity(ids.len());
+        let mut pen = 0.0;
+        for (j, &id) in ids.iter().enumerate() {
+            if j > 0 {
+                pen += font.kern_unscaled(ids[j - 1], id);
+            }
+            advance.push(pen);
+            pen += font.h_advance_unscaled(id);
+        }
+        let width = pen * k;
+        let x0 = num("x", 0.0)
+            - match attr(tag, "text-anchor").as_deref() {
+                Some("middle") => width / 2.0,
+                Some("end") => width,
+                _ => 0.0,
+            };
+        let base = num("y", 0.0) + dy;
+        let mut d = String::new();
+        let pt = |p: ab_glyph::Point, ox: f32| (x0 + (ox + p.x) * k, base - p.y * k);
+        let mut last = None;
+        for (j, &id) in ids.iter().enumerate() {
+            let Some(outline) = font.outline(id) else {
+                continue;
+            };
+            let ox = advance[j];
+            for c in &outline.curves {
+                let (start, seg) = match c {
+                    OutlineCurve::Line(a, b) => {
+                        let (bx, by) = pt(*b, ox);
+                        (*a, format!("L{bx:.2} {by:.2}"))
+                    }
+                    OutlineCurve::Quad(a, b, c) => {
+                        let ((bx, by), (cx, cy)) = (pt(*b, ox), pt(*c, ox));
+                        (*a, format!("Q{bx:.2} {by:.2} {cx:.2} {cy:.2}"))
+                    }
+                    OutlineCurve::Cubic(a, b, c, e) => {
+                        let ((bx, by), (cx, cy), (ex, ey)) = (pt(*b, ox), pt(*c, ox), pt(*e, ox));
+                        (
+                            *a,
+                            format!("C{bx:.2} {by:.2} {cx:.2} {cy:.2} {ex:.2} {ey:.2}"),
+                        )
+                    }
+                };
+                let s = pt(start, ox);
+                if last != Some((j, start.x.to_bits(), start.y.to_bits())) {
+                    d.push_str(&format!("M{:.2} {:.2}", s.0, s.1));
+                }
+                d.push_str(&seg);
+                let end = match c {
+                    OutlineCurve::Line(_, b) => *b,
+                    OutlineCurve::Quad(_, _, c) => *c,
+                    OutlineCurve::Cubic(_, _, _, e) => *e,
+                };
+                last = Some((j, end.x.to_bits(), end.y.to_bits()));
+            }
+        }
+        let fill = attr(tag, "fill").unwrap_or_else(|| "#000000".into());
+        let opacity = attr(tag, "opacity").unwrap_or_else(|| "1".into());
+        let transform = attr(tag, "transform")
+            .map(|t| format!(" transform=\"{t}\""))
+            .unwrap_or_default();
+        out.push_str(&format!(
+            "<path d=\"{d}\" fill=\"{fill}\" opacity=\"{opacity}\"{transform}><title>{}</title></path>",
+            content.replace('&', "&amp;").replace('<', "&lt;")
+        ));
+    }
+    out.push_str(rest);
+    out
+}
+
+/// An axis tick label: at most 6 significant digits, no trailing zeros, no "-0" (so the
+/// ticks read 10, 20, 0.25 rather than 10.0, 20.0, 0.250).
+pub fn tick(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return "0".into();
+    }
+    let digits = (5 - v.abs().log10().floor() as i32).clamp(0, 12) as usize;
+    let s = format!("{v:.digits$}");
+    let s = if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    };
+    if s == "-0" { "0".into() } else { s }
 }
 
 /// PNG bytes of an 8-bit RGB buffer.
@@ -116,7 +255,7 @@ fn draw_legend<'a, DB: DrawingBackend + 'a>(
     chart
         .configure_series_labels()
         .position(pos)
-        .label_font(("sans-serif", 11))
+        .label_font(("sans-serif", 13))
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .draw()
@@ -298,7 +437,7 @@ impl Chart for LobeChart {
         };
         for (panel, area) in self.panels.iter().zip(&areas) {
             let (area, foot) = area.split_vertically(area.dim_in_pixel().1.saturating_sub(22));
-            foot.draw(&Text::new(unit.clone(), (14, 4), ("sans-serif", 11)))
+            foot.draw(&Text::new(unit.clone(), (14, 4), ("sans-serif", 13)))
                 .map_err(err)?;
             let mut chart = ChartBuilder::on(&area)
                 .caption(&panel.title, ("sans-serif", 16))
@@ -312,7 +451,7 @@ impl Chart for LobeChart {
                 .disable_mesh()
                 .x_desc("relative to the normal (mirror side ←, light side →)")
                 .y_desc("along the normal")
-                .label_style(("sans-serif", 11))
+                .label_style(("sans-serif", 13))
                 .axis_desc_style(("sans-serif", 12))
                 .draw()
                 .map_err(err)?;
@@ -512,7 +651,9 @@ impl Chart for XyChart {
             .configure_mesh()
             .x_desc(xl)
             .y_desc(yl)
-            .label_style(("sans-serif", 11))
+            .x_label_formatter(&|v| tick(*v))
+            .y_label_formatter(&|v| tick(*v))
+            .label_style(("sans-serif", 13))
             .axis_desc_style(("sans-serif", 13))
             .light_line_style(RGBColor(235, 235, 235))
             .draw()
@@ -538,7 +679,25 @@ impl Chart for XyChart {
                 .collect();
             draw_series(&mut chart, xy, &s.label, s.markers, 3, color)?;
         }
-        draw_legend(&mut chart, SeriesLabelPosition::UpperRight)?;
+        // The legend goes in the top corner with fewer points under it (top quarter, outer
+        // 45 % of the width), so it does not hide data.
+        let (lx0, lx1, ly0, ly1) = (tx(x0), tx(x1), ty(y0), ty(y1));
+        let under = |right: bool| {
+            all()
+                .filter(|p| p.0.is_finite() && p.1.is_finite())
+                .filter(|p| {
+                    let u = (tx(p.0) - lx0) / (lx1 - lx0);
+                    let v = (ty(p.1) - ly0) / (ly1 - ly0);
+                    v > 0.75 && if right { u > 0.55 } else { u < 0.45 }
+                })
+                .count()
+        };
+        let pos = if under(true) <= under(false) {
+            SeriesLabelPosition::UpperRight
+        } else {
+            SeriesLabelPosition::UpperLeft
+        };
+        draw_legend(&mut chart, pos)?;
         Ok(())
     }
 }
@@ -559,7 +718,21 @@ pub fn albedo_chart(label: &str, model: &Model) -> (XyChart, Vec<(f64, f64)>) {
         }],
         log_x: false,
         log_y: false,
-        hline: Some((1.0, "energy limit ρ = 1".into())),
+        hline: None,
+    };
+    // The axis follows the curve; the energy limit is drawn only where it is near enough to
+    // be read against it (a curve at 0.02–0.3 would otherwise lie on the bottom edge).
+    let top = pts.iter().map(|p| p.1).fold(0.0, f64::max);
+    let chart = if top > 0.7 {
+        XyChart {
+            hline: Some((1.0, "energy limit ρ = 1".into())),
+            ..chart
+        }
+    } else {
+        XyChart {
+            title: format!("{} (energy limit ρ = 1 far above)", chart.title),
+            ..chart
+        }
     };
     (chart, pts)
 }
@@ -714,7 +887,7 @@ impl Chart for SliceChart {
                 .disable_mesh()
                 .x_desc("θd (degrees)")
                 .y_desc("θh (degrees)")
-                .label_style(("sans-serif", 11))
+                .label_style(("sans-serif", 13))
                 .draw()
                 .map_err(err)?;
             let n = self.n;

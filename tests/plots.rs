@@ -89,8 +89,25 @@ fn albedo_flags_energy_creation() {
         assert!(a > 0.333 && a < 1.0, "MgO albedo at {t}° = {a}");
     }
     let hot = Model::new(ModelKind::Phong, Distribution::D3, &[5.0, 3.0, 0.5]).unwrap();
-    let (_, pts) = plot::albedo_chart("hot", &hot);
+    let (chart, pts) = plot::albedo_chart("hot", &hot);
     assert!(pts.iter().any(|p| p.1 > 1.0));
+    // Near or above 1 the energy limit is drawn; for MgO (0.35–0.43) the axis follows the
+    // curve alone, so it does not lie on the bottom edge of an axis running to 1.
+    assert!(chart.hline.is_some());
+    let (chart, pts) = plot::albedo_chart("mgo", &mgo);
+    assert!(chart.hline.is_none() && chart.title.contains("far above"));
+    assert!(pts.iter().all(|p| p.1 < 0.5));
+}
+
+/// Tick labels: no trailing zeros, no "-0", enough digits for small steps.
+#[test]
+fn tick_labels() {
+    assert_eq!(plot::tick(10.0), "10");
+    assert_eq!(plot::tick(0.25), "0.25");
+    assert_eq!(plot::tick(-0.0), "0");
+    assert_eq!(plot::tick(-1e-17), "0");
+    assert_eq!(plot::tick(0.0251188), "0.0251188");
+    assert_eq!(plot::tick(2.0), "2");
 }
 
 #[test]
@@ -129,4 +146,90 @@ fn files_are_valid_and_deterministic() {
         e[e.len() / 2]
     };
     assert!(med < 0.05, "median |Δ log10 f| = {med}");
+}
+
+/// PNG text: in "1.0" drawn at 13 px (the size of tick labels), the full stop sits on the
+/// digits' baseline (plotters 0.3.7 drew it up to 2 px high; brdfit's vendored copy floors the
+/// glyph offsets) and between the digits.
+#[test]
+fn png_text_full_stop_sits_on_the_baseline() {
+    use plotters::prelude::*;
+    brdfit::plot::register_font_once();
+    for size in [11.0, 12.0, 13.0, 14.0, 16.0] {
+        let (w, h) = (80u32, 40u32);
+        let mut buf = vec![255u8; (w * h * 3) as usize];
+        {
+            let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+            root.draw(&Text::new(
+                "1.0",
+                (10, 10),
+                ("sans-serif", size).into_font(),
+            ))
+            .unwrap();
+            root.present().unwrap();
+        }
+        let dark = |x: u32, y: u32| buf[((y * w + x) * 3) as usize] < 128;
+        // Columns with ink, grouped into glyphs.
+        let cols: Vec<u32> = (0..w).filter(|&x| (0..h).any(|y| dark(x, y))).collect();
+        let mut glyphs: Vec<Vec<u32>> = Vec::new();
+        for x in cols {
+            match glyphs.last_mut() {
+                Some(g) if *g.last().unwrap() + 1 == x => g.push(x),
+                _ => glyphs.push(vec![x]),
+            }
+        }
+        assert_eq!(glyphs.len(), 3, "size {size}: {glyphs:?}");
+        let bottom = |g: &Vec<u32>| {
+            g.iter()
+                .flat_map(|&x| (0..h).filter(move |&y| dark(x, y)))
+                .max()
+                .unwrap()
+        };
+        let (one, dot, zero) = (bottom(&glyphs[0]), bottom(&glyphs[1]), bottom(&glyphs[2]));
+        assert!(
+            dot == one && dot == zero,
+            "size {size}: bottoms 1 at {one}, . at {dot}, 0 at {zero}"
+        );
+    }
+}
+
+/// SVG text is converted to glyph outlines: no `<text>` is left, the string is kept as the
+/// path's title, and the outline of "1.0" at 20 px has the font's proportions: the digit
+/// reaches about 0.73 em above the baseline, the full stop no higher than 0.2 em.
+#[test]
+fn svg_text_becomes_paths() {
+    let svg = r##"<svg><text x="10" y="50" font-size="20" fill="#000000">1.0</text></svg>"##;
+    let out = plot::svg_text_to_paths(svg);
+    assert!(!out.contains("<text"), "{out}");
+    assert!(out.contains("<title>1.0</title>"));
+    let d = out.split("d=\"").nth(1).unwrap().split('"').next().unwrap();
+    // Each subpath ("M…") with its points.
+    let subpaths: Vec<Vec<(f64, f64)>> = d
+        .split('M')
+        .filter(|s| !s.is_empty())
+        .map(|s| {
+            let nums: Vec<f64> = s
+                .split(|c: char| c.is_ascii_alphabetic() || c == ' ')
+                .filter_map(|t| t.parse().ok())
+                .collect();
+            nums.chunks(2).map(|p| (p[0], p[1])).collect()
+        })
+        .collect();
+    let top = subpaths
+        .iter()
+        .flatten()
+        .map(|p| p.1)
+        .fold(f64::INFINITY, f64::min);
+    assert!((50.0 - top - 0.729 * 20.0).abs() < 0.6, "digit top {top}");
+    // The full stop: the subpath whose points all lie within 0.2 em of the baseline.
+    let dot = subpaths
+        .iter()
+        .filter(|s| s.iter().all(|p| p.1 >= 50.0 - 0.2 * 20.0 && p.1 <= 50.01))
+        .count();
+    assert_eq!(dot, 1, "{d}");
+    // The real charts carry no <text> either.
+    let dir = tempfile::tempdir().unwrap();
+    let (svg, _) = plot::save(&plot::blinn_figure(30.0, 5), &dir.path().join("f")).unwrap();
+    let text = std::fs::read_to_string(svg).unwrap();
+    assert!(!text.contains("<text") && text.contains("<path"));
 }
