@@ -230,8 +230,17 @@ fn draw_series<'a, DB: DrawingBackend + 'a>(
     color: RGBColor,
 ) -> Result<()> {
     if markers {
+        // Dense clouds are drawn translucent and small, so their density stays readable.
+        let (radius, alpha) = if xy.len() > 2000 {
+            (2, 0.15)
+        } else {
+            (radius, 1.0)
+        };
         chart
-            .draw_series(xy.iter().map(|p| Circle::new(*p, radius, color.filled())))
+            .draw_series(
+                xy.iter()
+                    .map(|p| Circle::new(*p, radius, color.mix(alpha).filled())),
+            )
             .map_err(err)?
             .label(label)
             .legend(move |(x, y)| Circle::new((x + 9, y), 3, color.filled()));
@@ -668,8 +677,10 @@ impl Chart for XyChart {
                 .label(label.clone())
                 .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK));
         }
-        for (k, s) in self.series.iter().enumerate() {
-            let color = PALETTE[k % PALETTE.len()];
+        // A series with an empty label continues the one before it: same colour, no legend
+        // entry (the upper line of a 10–90 % band).
+        let mut k = 0;
+        for s in &self.series {
             let xy: Vec<(f64, f64)> = s
                 .points
                 .iter()
@@ -677,7 +688,22 @@ impl Chart for XyChart {
                 .filter(|p| (!self.log_x || p.0 > 0.0) && (!self.log_y || p.1 > 0.0))
                 .map(|p| (tx(p.0), ty(p.1)))
                 .collect();
-            draw_series(&mut chart, xy, &s.label, s.markers, 3, color)?;
+            if s.label.is_empty() && k > 0 {
+                let color = PALETTE[(k - 1) % PALETTE.len()];
+                chart
+                    .draw_series(LineSeries::new(xy, color.stroke_width(2)))
+                    .map_err(err)?;
+                continue;
+            }
+            draw_series(
+                &mut chart,
+                xy,
+                &s.label,
+                s.markers,
+                3,
+                PALETTE[k % PALETTE.len()],
+            )?;
+            k += 1;
         }
         // The legend goes in the top corner with fewer points under it (top quarter, outer
         // 45 % of the width), so it does not hide data.
@@ -767,22 +793,72 @@ pub fn residual_charts(label: &str, pts: &[[f64; 4]]) -> Vec<(String, XyChart)> 
         .enumerate()
         .map(|(k, name)| {
             let file = ["residual-theta-h", "residual-theta-d", "residual-theta-i"][k];
+            let xy: Vec<(f64, f64)> = pts.iter().map(|p| (p[k], p[3])).collect();
+            let q = binned_quantiles(&xy, 30);
+            let line = |label: &str, f: fn(&[f64; 4]) -> f64| LobeSeries {
+                label: label.into(),
+                points: q.iter().map(|b| (b[0], f(b))).collect(),
+                markers: false,
+            };
             (
                 file.to_string(),
                 XyChart {
                     title: format!("Residuals of {label} against {name}"),
                     x_label: format!("{name} (degrees)"),
                     y_label: "residual r (loss units)".into(),
-                    series: vec![LobeSeries {
-                        label: "samples".into(),
-                        points: pts.iter().map(|p| (p[k], p[3])).collect(),
-                        markers: true,
-                    }],
+                    series: vec![
+                        LobeSeries {
+                            label: format!("samples ({})", xy.len()),
+                            points: xy,
+                            markers: true,
+                        },
+                        line("binned median", |b| b[2]),
+                        line("10 % and 90 % of each bin", |b| b[1]),
+                        line("", |b| b[3]),
+                    ],
                     log_x: false,
                     log_y: false,
                     hline: Some((0.0, "r = 0".into())),
                 },
             )
+        })
+        .collect()
+}
+
+/// Quantiles of y in `bins` equal-width bins of x: (bin centre, 10 %, 50 %, 90 %) for each bin
+/// holding at least 5 finite points (nearest-rank quantiles).
+pub fn binned_quantiles(xy: &[(f64, f64)], bins: usize) -> Vec<[f64; 4]> {
+    let finite: Vec<(f64, f64)> = xy
+        .iter()
+        .copied()
+        .filter(|p| p.0.is_finite() && p.1.is_finite())
+        .collect();
+    let (lo, hi) = finite
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(p.0), b.max(p.0))
+        });
+    if finite.is_empty() || bins == 0 || hi <= lo {
+        return Vec::new();
+    }
+    let width = (hi - lo) / bins as f64;
+    let mut groups = vec![Vec::new(); bins];
+    for (x, y) in finite {
+        groups[(((x - lo) / width) as usize).min(bins - 1)].push(y);
+    }
+    let q = |v: &[f64], p: f64| v[((p * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1];
+    groups
+        .iter_mut()
+        .enumerate()
+        .filter(|(_, g)| g.len() >= 5)
+        .map(|(i, g)| {
+            g.sort_by(f64::total_cmp);
+            [
+                lo + (i as f64 + 0.5) * width,
+                q(g, 0.1),
+                q(g, 0.5),
+                q(g, 0.9),
+            ]
         })
         .collect()
 }

@@ -233,3 +233,26 @@ fn svg_text_becomes_paths() {
     let text = std::fs::read_to_string(svg).unwrap();
     assert!(!text.contains("<text") && text.contains("<path"));
 }
+
+/// Binned quantiles by hand: each of 4 bins holds y = 1…10 (shifted by the bin), so its
+/// nearest-rank 10 %, 50 % and 90 % are 1, 5 and 9 (plus the shift); a bin of 4 points is
+/// left out.
+#[test]
+fn binned_quantiles_by_hand() {
+    let mut xy = Vec::new();
+    for bin in 0..4 {
+        for y in 1..=10 {
+            xy.push((
+                bin as f64 * 10.0 + 0.5 + y as f64 * 0.1,
+                y as f64 + 100.0 * bin as f64,
+            ));
+        }
+    }
+    xy.extend((0..4).map(|i| (45.0 + i as f64, 0.0)));
+    let q = plot::binned_quantiles(&xy, 5);
+    assert_eq!(q.len(), 4, "{q:?}");
+    for (bin, b) in q.iter().enumerate() {
+        let s = 100.0 * bin as f64;
+        assert_eq!([b[1], b[2], b[3]], [1.0 + s, 5.0 + s, 9.0 + s], "{b:?}");
+    }
+}
