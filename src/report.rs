@@ -680,7 +680,7 @@ fn studies(
         &srows,
     );
     let (png, svg) = save_chart(&chart, root, &format!("{dir}/stability"))?;
-    doc.figure(&png, Some(&svg), "Stability across noise levels and sampling patterns (configurations numbered as in the table)");
+    doc.figure(&png, Some(&svg), "Stability as a heatmap: configurations (noise × sampling) against methods, each cell the share of seeded random starts reaching the global minimum, failures classified");
     let (md, csv) = study::stability_tables(&srows);
     write_bytes_atomic(&root.join(dir).join("stability.csv"), csv.as_bytes())?;
     doc.md.push_str(&md);

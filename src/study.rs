@@ -295,6 +295,22 @@ pub struct StabilityRow {
     pub starts: usize,
     /// Starts that ended in an error or a non-finite cost.
     pub failures: usize,
+    /// Starts that converged (a tolerance test stopped them) at a higher cost: a wrong basin.
+    pub wrong_basin: usize,
+    /// Starts stopped by an iteration, evaluation or damping limit at a higher cost.
+    pub stalled: usize,
+    /// Starts that ended on a bound of the admissible box at a higher cost.
+    pub at_bound: usize,
+}
+
+/// How one start of the stability study ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Outcome {
+    Reached,
+    WrongBasin,
+    Stalled,
+    AtBound,
+    NonFinite,
 }
 
 /// Run the stability study around `reference`: for each noise level and pattern, about
@@ -326,93 +342,218 @@ pub fn stability_with_progress(
             let dirs = pattern.directions(samples.max(10), seed + ci as u64);
             let ds = simulate(reference, &dirs, noise, seed + 100 + ci as u64);
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed + 1000 + ci as u64);
+            // Random starts from the model's declared ranges (any model, not only
+            // Torrance–Sparrow).
+            let specs = reference.specs();
             let start_points: Vec<Vec<(String, f64)>> = (0..starts)
                 .map(|_| {
-                    vec![
-                        ("n".into(), 10f64.powf(rng.random_range(0.02..2.7))),
-                        ("c3".into(), rng.random_range(0.02..0.99)),
-                        ("ps".into(), rng.random_range(0.0..2.0)),
-                        ("pd".into(), rng.random_range(0.0..1.0)),
-                    ]
+                    specs
+                        .iter()
+                        .map(|s| (s.name.to_string(), s.random_value(&mut rng)))
+                        .collect()
                 })
                 .collect();
-            let mut runs: Vec<(Method, bool, Vec<f64>)> = Vec::new();
+            let mut runs: Vec<(Method, bool, Vec<(f64, Outcome)>)> = Vec::new();
             for method in [Method::Lm, Method::GaussNewton, Method::NelderMead] {
                 for global in [true, false] {
-                    let costs = start_points
+                    let ends = start_points
                         .iter()
                         .map(|s| {
-                            let mut o = FitOptions::new(ModelKind::TorranceSparrow);
+                            let mut o = FitOptions::new(reference.kind);
+                            o.dist = reference.dist;
                             o.method = method;
                             o.local_only = !global;
                             o.start = s.clone();
                             o.profile = false;
-                            fit::fit(&ds, &o).map_or(f64::INFINITY, |f| f[0].cost)
+                            match fit::fit(&ds, &o) {
+                                Ok(f) if f[0].cost.is_finite() => {
+                                    let f = &f[0];
+                                    let how = if !f.at_bound.is_empty() {
+                                        Outcome::AtBound
+                                    } else if f.termination.contains("limit") {
+                                        Outcome::Stalled
+                                    } else {
+                                        Outcome::WrongBasin
+                                    };
+                                    (f.cost, how)
+                                }
+                                _ => (f64::INFINITY, Outcome::NonFinite),
+                            }
                         })
                         .collect();
-                    runs.push((method, global, costs));
+                    runs.push((method, global, ends));
                 }
             }
             let best = runs
                 .iter()
-                .flat_map(|r| r.2.iter())
-                .cloned()
+                .flat_map(|r| r.2.iter().map(|e| e.0))
                 .fold(f64::INFINITY, f64::min);
             progress();
+            // Within 1e-6 relative, or (noise-free data, cost ≈ 0) within an absolute 1e-12
+            // per sample of the best.
+            let tol = 1e-6 * best.abs() + 1e-12 * ds.len() as f64;
             runs.into_iter()
-                .map(|(method, global, costs)| StabilityRow {
-                    noise,
-                    pattern,
-                    method,
-                    global,
-                    // Within 1e-6 relative, or (noise-free data, cost ≈ 0) within an absolute
-                    // 1e-12 per sample of the best.
-                    hits: costs
-                        .iter()
-                        .filter(|c| (*c - best) <= 1e-6 * best.abs() + 1e-12 * ds.len() as f64)
-                        .count(),
-                    starts,
-                    failures: costs.iter().filter(|c| !c.is_finite()).count(),
+                .map(|(method, global, ends)| {
+                    let outcome = |e: &(f64, Outcome)| {
+                        if e.1 != Outcome::NonFinite && e.0 - best <= tol {
+                            Outcome::Reached
+                        } else {
+                            e.1
+                        }
+                    };
+                    let count = |o: Outcome| ends.iter().filter(|e| outcome(e) == o).count();
+                    StabilityRow {
+                        noise,
+                        pattern,
+                        method,
+                        global,
+                        hits: count(Outcome::Reached),
+                        starts,
+                        failures: count(Outcome::NonFinite),
+                        wrong_basin: count(Outcome::WrongBasin),
+                        stalled: count(Outcome::Stalled),
+                        at_bound: count(Outcome::AtBound),
+                    }
                 })
                 .collect::<Vec<_>>()
         })
         .collect()
 }
 
-/// Stability chart: success share per configuration, one line per method × initialisation.
-pub fn stability_chart(title: &str, rows: &[StabilityRow]) -> XyChart {
-    let mut series = Vec::new();
-    for method in [Method::Lm, Method::GaussNewton, Method::NelderMead] {
-        for global in [true, false] {
-            let pts: Vec<(f64, f64)> = rows
-                .iter()
-                .filter(|r| r.method == method && r.global == global)
-                .enumerate()
-                .map(|(k, r)| ((k + 1) as f64, r.hits as f64 / r.starts.max(1) as f64))
-                .collect();
-            series.push(LobeSeries {
-                label: format!(
-                    "{} {}",
-                    method.name(),
-                    if global {
-                        "with global init."
-                    } else {
-                        "local only"
-                    }
-                ),
-                points: pts,
-                markers: false,
-            });
+/// The stability heatmap: one row per configuration (noise × sampling pattern), one column
+/// per method × initialisation; each cell coloured by the share of starts reaching the
+/// global minimum and labelled `hits/starts` with the failures by kind (b wrong basin,
+/// s stalled, ⊥ at a bound, ∞ non-finite).
+#[derive(Clone, Debug)]
+pub struct StabilityHeatmap {
+    /// Title.
+    pub title: String,
+    /// Row labels, top to bottom.
+    pub rows: Vec<String>,
+    /// Column labels, left to right.
+    pub cols: Vec<String>,
+    /// Cells, row-major: (hits, starts, label).
+    pub cells: Vec<(usize, usize, String)>,
+}
+
+/// The columns of the stability study: each method with and without the global
+/// initialisation.
+pub const STABILITY_COLUMNS: [(Method, bool); 6] = [
+    (Method::Lm, true),
+    (Method::Lm, false),
+    (Method::GaussNewton, true),
+    (Method::GaussNewton, false),
+    (Method::NelderMead, true),
+    (Method::NelderMead, false),
+];
+
+/// [`StabilityHeatmap`] of the study's rows.
+pub fn stability_chart(title: &str, rows: &[StabilityRow]) -> StabilityHeatmap {
+    let mut configs: Vec<(f64, Pattern)> = Vec::new();
+    for r in rows {
+        if !configs.contains(&(r.noise, r.pattern)) {
+            configs.push((r.noise, r.pattern));
         }
     }
-    XyChart {
+    let mut cells = Vec::new();
+    for (noise, pattern) in &configs {
+        for (m, g) in STABILITY_COLUMNS {
+            let r = rows.iter().find(|r| {
+                r.noise == *noise && r.pattern == *pattern && r.method == m && r.global == g
+            });
+            cells.push(r.map_or((0, 0, "–".into()), |r| {
+                let mut why = Vec::new();
+                for (n, mark) in [
+                    (r.wrong_basin, "b"),
+                    (r.stalled, "s"),
+                    (r.at_bound, "⊥"),
+                    (r.failures, "∞"),
+                ] {
+                    if n > 0 {
+                        why.push(format!("{n}{mark}"));
+                    }
+                }
+                (
+                    r.hits,
+                    r.starts,
+                    format!("{}/{} {}", r.hits, r.starts, why.join(" ")),
+                )
+            }));
+        }
+    }
+    StabilityHeatmap {
         title: title.to_string(),
-        x_label: "configuration (noise × sampling pattern, numbered as in the table)".into(),
-        y_label: "share of random starts reaching the global minimum".into(),
-        series,
-        log_x: false,
-        log_y: false,
-        hline: None,
+        rows: configs
+            .iter()
+            .enumerate()
+            .map(|(k, (n, p))| format!("{}. {:.0} % noise, {}", k + 1, n * 100.0, p.name()))
+            .collect(),
+        cols: STABILITY_COLUMNS
+            .iter()
+            .map(|(m, g)| format!("{} {}", m.name(), if *g { "+ init" } else { "local" }))
+            .collect(),
+        cells,
+    }
+}
+
+impl crate::plot::Chart for StabilityHeatmap {
+    fn size(&self) -> (u32, u32) {
+        (900, 110 + 30 * self.rows.len() as u32)
+    }
+
+    fn draw<DB: plotters::prelude::DrawingBackend>(
+        &self,
+        root: &plotters::prelude::DrawingArea<DB, plotters::coord::Shift>,
+    ) -> anyhow::Result<()> {
+        use plotters::prelude::*;
+        let err = |e: &dyn std::fmt::Debug| anyhow::anyhow!("drawing failed: {e:?}");
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let (left, top, cw, ch) = (230i32, 70i32, 110i32, 30i32);
+        let font = |size: f64| ("sans-serif", size).into_font();
+        root.draw(&Text::new(self.title.clone(), (12, 10), font(18.0)))
+            .map_err(|e| err(&e))?;
+        root.draw(&Text::new(
+            "share of starts reaching the global minimum (cell: hits/starts; failures: b wrong basin, s stalled, ⊥ at a bound, ∞ non-finite)",
+            (12, 36),
+            font(12.0),
+        ))
+        .map_err(|e| err(&e))?;
+        for (c, label) in self.cols.iter().enumerate() {
+            root.draw(&Text::new(
+                label.clone(),
+                (left + c as i32 * cw + 6, top - 16),
+                font(13.0),
+            ))
+            .map_err(|e| err(&e))?;
+        }
+        for (r, label) in self.rows.iter().enumerate() {
+            let y = top + r as i32 * ch;
+            root.draw(&Text::new(label.clone(), (12, y + 8), font(13.0)))
+                .map_err(|e| err(&e))?;
+            for c in 0..self.cols.len() {
+                let (hits, starts, text) = &self.cells[r * self.cols.len() + c];
+                let share = if *starts > 0 {
+                    *hits as f64 / *starts as f64
+                } else {
+                    0.0
+                };
+                // Red (none) through yellow to green (all).
+                let colour = RGBColor(
+                    (255.0 * (1.0 - share).min(1.0).max(0.0).sqrt()) as u8,
+                    (200.0 * share.sqrt()) as u8 + 40,
+                    90,
+                );
+                let x = left + c as i32 * cw;
+                root.draw(&Rectangle::new(
+                    [(x, y), (x + cw - 2, y + ch - 2)],
+                    colour.mix(0.55).filled(),
+                ))
+                .map_err(|e| err(&e))?;
+                root.draw(&Text::new(text.clone(), (x + 6, y + 8), font(13.0)))
+                    .map_err(|e| err(&e))?;
+            }
+        }
+        Ok(())
     }
 }
 
@@ -421,7 +562,9 @@ pub fn stability_tables(rows: &[StabilityRow]) -> (String, String) {
     let mut md = String::from(
         "| # | noise | sampling | lm + init | lm local | gn + init | gn local | nm + init | nm local |\n|---:|---:|---|---:|---:|---:|---:|---:|---:|\n",
     );
-    let mut csv = String::from("config,noise,pattern,method,global_init,hits,starts,failures\n");
+    let mut csv = String::from(
+        "config,noise,pattern,method,global_init,hits,starts,failures,wrong_basin,stalled,at_bound\n",
+    );
     let mut configs: Vec<(f64, Pattern)> = Vec::new();
     for r in rows {
         if !configs.contains(&(r.noise, r.pattern)) {
@@ -434,14 +577,17 @@ pub fn stability_tables(rows: &[StabilityRow]) -> (String, String) {
             + 1;
         let _ = writeln!(
             csv,
-            "{k},{},{},{},{},{},{},{}",
+            "{k},{},{},{},{},{},{},{},{},{},{}",
             r.noise,
             r.pattern.name(),
             r.method.name(),
             r.global,
             r.hits,
             r.starts,
-            r.failures
+            r.failures,
+            r.wrong_basin,
+            r.stalled,
+            r.at_bound
         );
     }
     for (k, (noise, pattern)) in configs.iter().enumerate() {

@@ -67,12 +67,32 @@ fn stability_counts_starts_per_configuration() {
     let (md, csv) = study::stability_tables(&rows);
     assert_eq!(md.lines().count(), 18);
     assert_eq!(csv.lines().count(), 1 + 16 * 6);
-    let chart = study::stability_chart("t", &rows);
-    assert_eq!(chart.series.len(), 6);
+    // Every start ends one way: reached, wrong basin, stalled, at a bound or non-finite.
     assert!(
-        chart
-            .series
-            .iter()
-            .all(|s| s.points.len() == 16 && s.points.iter().all(|p| (0.0..=1.0).contains(&p.1)))
+        rows.iter()
+            .all(|r| r.hits + r.wrong_basin + r.stalled + r.at_bound + r.failures == r.starts)
     );
+    // Each heatmap cell is the count the CSV gives for its configuration and column.
+    let chart = study::stability_chart("t", &rows);
+    assert_eq!((chart.rows.len(), chart.cols.len()), (16, 6));
+    let mut n = 0;
+    for line in csv.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let config: usize = f[0].parse().unwrap();
+        let col = study::STABILITY_COLUMNS
+            .iter()
+            .position(|(m, g)| m.name() == f[3] && g.to_string() == f[4])
+            .unwrap();
+        let cell = &chart.cells[(config - 1) * 6 + col];
+        assert_eq!(
+            (cell.0.to_string(), cell.1.to_string()),
+            (f[5].into(), f[6].into()),
+            "{line}"
+        );
+        assert!(cell.2.starts_with(&format!("{}/{}", f[5], f[6])));
+        n += 1;
+    }
+    assert_eq!(n, 96);
+    let dir = tempfile::tempdir().unwrap();
+    brdfit::plot::save(&chart, &dir.path().join("h")).unwrap();
 }

@@ -125,7 +125,7 @@ pub(crate) enum Command {
         #[arg(short, long, default_value = "reports")]
         output: PathBuf,
         /// Random starts per configuration in each stability study.
-        #[arg(long, default_value_t = 3)]
+        #[arg(long, default_value_t = 16)]
         stability_starts: usize,
         /// Resolution of the material renders.
         #[arg(long, default_value_t = 256)]

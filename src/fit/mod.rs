@@ -1219,15 +1219,7 @@ pub fn random_start(p: &BrdfProblem, specs: &[&ParamSpec], rng: &mut impl rand::
     specs
         .iter()
         .enumerate()
-        .map(|(k, s)| {
-            let (a, b) = s.random;
-            let v = if a > 0.0 {
-                (a.ln() + rng.random::<f64>() * (b / a).ln()).exp()
-            } else {
-                a + rng.random::<f64>() * (b - a)
-            };
-            p.transforms[k].invert(v)
-        })
+        .map(|(k, s)| p.transforms[k].invert(s.random_value(rng)))
         .collect()
 }
 

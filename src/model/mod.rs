@@ -333,6 +333,17 @@ pub struct ParamSpec {
 }
 
 impl ParamSpec {
+    /// A random value in the declared random-start range: log-uniform when the range is
+    /// positive, else uniform.
+    pub fn random_value(&self, rng: &mut impl rand::Rng) -> f64 {
+        let (a, b) = self.random;
+        if a > 0.0 {
+            (a.ln() + rng.random::<f64>() * (b / a).ln()).exp()
+        } else {
+            a + rng.random::<f64>() * (b - a)
+        }
+    }
+
     /// Whether a value may be given to the model: finite, ≥ lo for a linear parameter, above
     /// the offset (≥ 1 for n, > 0 otherwise) for a log-scale one, and ≤ hi where hi is a
     /// natural limit (≤ 1, as for c3 and α; larger fitting bounds such as n ≤ 1e7 bound the
