@@ -303,6 +303,10 @@ pub struct StabilityRow {
     pub at_bound: usize,
 }
 
+/// One column of a configuration: method, global initialisation, and each start's final
+/// cost with how it ended.
+type Run = (Method, bool, Vec<(f64, Outcome)>);
+
 /// How one start of the stability study ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Outcome {
@@ -353,7 +357,7 @@ pub fn stability_with_progress(
                         .collect()
                 })
                 .collect();
-            let mut runs: Vec<(Method, bool, Vec<(f64, Outcome)>)> = Vec::new();
+            let mut runs: Vec<Run> = Vec::new();
             for method in [Method::Lm, Method::GaussNewton, Method::NelderMead] {
                 for global in [true, false] {
                     let ends = start_points
