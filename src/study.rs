@@ -543,7 +543,7 @@ impl crate::plot::Chart for StabilityHeatmap {
                 };
                 // Red (none) through yellow to green (all).
                 let colour = RGBColor(
-                    (255.0 * (1.0 - share).min(1.0).max(0.0).sqrt()) as u8,
+                    (255.0 * (1.0 - share).clamp(0.0, 1.0).sqrt()) as u8,
                     (200.0 * share.sqrt()) as u8 + 40,
                     90,
                 );
