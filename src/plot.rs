@@ -188,16 +188,7 @@ pub fn svg_text_to_paths(svg: &str) -> String {
 /// An axis tick label: at most 6 significant digits, no trailing zeros, no "-0" (so the
 /// ticks read 10, 20, 0.25 rather than 10.0, 20.0, 0.250).
 pub fn tick(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() {
-        return "0".into();
-    }
-    let digits = (5 - v.abs().log10().floor() as i32).clamp(0, 12) as usize;
-    let s = format!("{v:.digits$}");
-    let s = if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        s
-    };
+    let s = crate::model::significant(v, 6);
     if s == "-0" { "0".into() } else { s }
 }
 
@@ -310,9 +301,9 @@ impl LobeQuantity {
 /// with θo < 0 on the mirror side (φo = φi + 180°) and θo > 0 on the light's side.
 pub fn lobe_curve(model: &Model, theta_i_deg: f64, q: LobeQuantity) -> Vec<(f64, f64)> {
     let ti = theta_i_deg.to_radians();
-    (-179..=179)
+    (-359..=359)
         .map(|k| {
-            let s = k as f64 * 0.5;
+            let s = k as f64 * 0.25;
             let phi = if s < 0.0 { PI } else { 0.0 };
             let g = Geometry::from_angles(ti, 0.0, s.abs().to_radians(), phi);
             (s, q.of(model.brdf(&g), ti.cos()))
@@ -410,14 +401,29 @@ impl LobeChart {
         }
     }
 
-    fn vmax(&self) -> f64 {
-        self.panels
+    /// The largest value in a panel: its outer circle (each panel has its own scale, shown
+    /// on its axes).
+    pub fn vmax(panel: &LobePanel) -> f64 {
+        panel
+            .series
             .iter()
-            .flat_map(|p| &p.series)
             .flat_map(|s| &s.points)
             .map(|p| p.1)
             .filter(|v| v.is_finite())
             .fold(1e-300, f64::max)
+    }
+
+    /// The value at drawn radius `r` (inverse of [`LobeChart::radius`]), for axis labels.
+    pub fn value_at(&self, r: f64, vmax: f64) -> f64 {
+        if self.log {
+            if r <= 0.0 {
+                0.0
+            } else {
+                vmax * 10f64.powf(4.0 * (r - 1.0))
+            }
+        } else {
+            r * vmax
+        }
     }
 }
 
@@ -430,21 +436,16 @@ impl Chart for LobeChart {
         root.fill(&WHITE).map_err(err)?;
         let root = root.titled(&self.title, ("sans-serif", 20)).map_err(err)?;
         let areas = root.split_evenly((1, self.panels.len().max(1)));
-        let vmax = self.vmax();
-        let unit = if self.log {
-            format!(
-                "radius: log₁₀ of {}, 4 decades to the outer circle ({})",
-                self.quantity.label(),
-                crate::model::short(vmax)
-            )
-        } else {
-            format!(
-                "radius: {}, outer circle = {}",
-                self.quantity.label(),
-                crate::model::short(vmax)
-            )
-        };
         for (panel, area) in self.panels.iter().zip(&areas) {
+            let vmax = Self::vmax(panel);
+            let unit = if self.log {
+                format!(
+                    "radius: {} on a log scale, 4 decades to the outer circle",
+                    self.quantity.label()
+                )
+            } else {
+                format!("radius: {} (axes in its units)", self.quantity.label())
+            };
             let (area, foot) = area.split_vertically(area.dim_in_pixel().1.saturating_sub(22));
             foot.draw(&Text::new(unit.clone(), (14, 4), ("sans-serif", 13)))
                 .map_err(err)?;
@@ -452,12 +453,18 @@ impl Chart for LobeChart {
                 .caption(&panel.title, ("sans-serif", 16))
                 .margin(10)
                 .x_label_area_size(36)
-                .y_label_area_size(40)
+                .y_label_area_size(58)
                 .build_cartesian_2d(-1.1f64..1.1f64, 0f64..1.1f64)
                 .map_err(err)?;
+            let label = |r: f64| {
+                let v = self.value_at(r.abs(), vmax);
+                crate::model::significant(v, 3)
+            };
             chart
                 .configure_mesh()
                 .disable_mesh()
+                .x_label_formatter(&|v| label(*v))
+                .y_label_formatter(&|v| label(*v))
                 .x_desc("relative to the normal (mirror side ←, light side →)")
                 .y_desc("along the normal")
                 .label_style(("sans-serif", 13))
@@ -1020,9 +1027,17 @@ pub fn lobe_chart(
                 })
                 .collect();
             if let Some((ds, c)) = data {
+                let points = in_plane_samples(ds, c, t, tol_deg, q);
                 series.push(LobeSeries {
-                    label: "measured, in plane".into(),
-                    points: in_plane_samples(ds, c, t, tol_deg, q),
+                    label: if points.is_empty() {
+                        format!("no measured sample within {tol_deg}° of this plane")
+                    } else {
+                        format!(
+                            "measured, within {tol_deg}° of the plane ({})",
+                            points.len()
+                        )
+                    },
+                    points,
                     markers: true,
                 });
             }

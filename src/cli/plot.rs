@@ -126,7 +126,11 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
             let mut models = Vec::new();
             for f in &fit {
                 for r in read_fits(f)? {
-                    models.push((format!("{} fit ({})", r.label(), r.channel), r.model_for(0)));
+                    let channel = match r.channel.as_str() {
+                        "" | "value" => String::new(),
+                        c => format!(" ({c})"),
+                    };
+                    models.push((format!("{} fit{channel}", r.label()), r.model_for(0)));
                 }
             }
             if let Some(m) = model.build()? {

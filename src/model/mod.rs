@@ -762,11 +762,16 @@ pub fn readable(v: f64) -> String {
 
 /// A number with at most 4 significant digits, without trailing zeros (for labels).
 pub fn short(v: f64) -> String {
+    significant(v, 4)
+}
+
+/// `v` with `digits` significant digits and no trailing zeros (0.3500 → 0.35, 10.0 → 10).
+pub fn significant(v: f64, digits: i32) -> String {
     if v == 0.0 || !v.is_finite() {
         return format!("{v}");
     }
-    let digits = (3 - v.abs().log10().floor() as i32).clamp(0, 12) as usize;
-    let s = format!("{v:.digits$}");
+    let decimals = (digits - 1 - v.abs().log10().floor() as i32).clamp(0, 12) as usize;
+    let s = format!("{v:.decimals$}");
     if s.contains('.') {
         s.trim_end_matches('0').trim_end_matches('.').to_string()
     } else {
