@@ -770,35 +770,6 @@ fn magma(lut: &[u8], e: f32) -> [u8; 3] {
     [lut[3 * i], lut[3 * i + 1], lut[3 * i + 2]]
 }
 
-/// The square crop (x0, y0, side) of the images that holds every visible pixel (sRGB above
-/// 8 in any image) with a margin: the whole image unless the visible part is small, so a thin
-/// edge-lit crescent is shown large.
-fn visible_crop(srgb: &[Vec<u8>], w: u32, h: u32) -> (u32, u32, u32) {
-    let (mut x0, mut y0, mut x1, mut y1) = (w, h, 0, 0);
-    for y in 0..h {
-        for x in 0..w {
-            let i = 3 * (y * w + x) as usize;
-            if srgb.iter().any(|s| s[i..i + 3].iter().any(|&v| v > 8)) {
-                (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
-            }
-        }
-    }
-    if x1 < x0 {
-        return (0, 0, w.min(h));
-    }
-    let side = ((x1 - x0).max(y1 - y0) + 1 + w / 16)
-        .max(w / 8)
-        .min(w.min(h));
-    if side * 10 > w.min(h) * 7 {
-        return (0, 0, w.min(h));
-    }
-    let cx = (x0 + x1) / 2;
-    let cy = (y0 + y1) / 2;
-    let left = cx.saturating_sub(side / 2).min(w - side);
-    let top = cy.saturating_sub(side / 2).min(h - side);
-    (left, top, side)
-}
-
 /// The contact sheet of a case, 4 columns wide so its text stays legible where the report
 /// shows it: each cell is a render over its ꟻLIP map (magma, 0–1), labelled with the model
 /// and its 99th percentiles; the reference's cell holds the colour bar instead of a map. A
@@ -828,7 +799,7 @@ fn contact_sheet(
         .map(|(_, i)| crate::render::to_srgb8(i))
         .collect();
     let (iw, ih) = (imgs.renders[0].1.width, imgs.renders[0].1.height);
-    let (cx, cy, side) = visible_crop(&srgb, iw, ih);
+    let (cx, cy, side) = crate::render::visible_crop(&srgb, iw, ih, 8);
     let origin = |k: u32| {
         (
             gap + (k % cols) * (tile + gap),

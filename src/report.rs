@@ -533,6 +533,11 @@ fn renders(doc: &mut Doc, set: &DataSet, ts: &FitResult) -> Result<()> {
         &format!("{name}-renders"),
     );
     let m = ts.model_for(0);
+    let phong = crate::model::equal_beta_phong(&m);
+    doc.p(&format!(
+        "Blinn's Figure 7 sphere with this data set's fit: {m}; and Phong with the same \
+         half-angle β: {phong}."
+    ));
     let mut names = Vec::new();
     for (lname, l) in [
         ("front", render::scene::Lighting::Front),

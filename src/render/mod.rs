@@ -1228,6 +1228,35 @@ pub fn fig7_images(
     out
 }
 
+/// The square crop (x0, y0, side) of the images that holds every pixel brighter than `level`
+/// (sRGB, in any image) with a margin: the whole image unless the visible part is small, so a thin
+/// edge-lit crescent is shown large.
+pub fn visible_crop(srgb: &[Vec<u8>], w: u32, h: u32, level: u8) -> (u32, u32, u32) {
+    let (mut x0, mut y0, mut x1, mut y1) = (w, h, 0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let i = 3 * (y * w + x) as usize;
+            if srgb.iter().any(|s| s[i..i + 3].iter().any(|&v| v > level)) {
+                (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
+            }
+        }
+    }
+    if x1 < x0 {
+        return (0, 0, w.min(h));
+    }
+    let side = ((x1 - x0).max(y1 - y0) + 1 + w / 16)
+        .max(w / 8)
+        .min(w.min(h));
+    if side * 10 > w.min(h) * 7 {
+        return (0, 0, w.min(h));
+    }
+    let cx = (x0 + x1) / 2;
+    let cy = (y0 + y1) / 2;
+    let left = cx.saturating_sub(side / 2).min(w - side);
+    let top = cy.saturating_sub(side / 2).min(h - side);
+    (left, top, side)
+}
+
 /// A labelled contact sheet (PNG bytes) of Figure 7 images laid out as Blinn's figure: rows
 /// aluminium and MgO, columns front/edge × Phong/Torrance–Sparrow.
 pub fn contact_sheet(images: &[(String, Image)]) -> anyhow::Result<Vec<u8>> {
@@ -1240,19 +1269,45 @@ pub fn contact_sheet(images: &[(String, Image)]) -> anyhow::Result<Vec<u8>> {
     for px in buf.chunks_mut(3) {
         px.copy_from_slice(&[255, 255, 255]);
     }
+    // The edge-lit images (columns 3 and 4) of each row share one crop around the lit
+    // crescent, so its thin highlight is large enough to compare.
+    let crop = |r: usize| {
+        let edge: Vec<Vec<u8>> = images
+            .iter()
+            .skip(4 * r + 2)
+            .take(2)
+            .map(|(_, i)| to_srgb8(i))
+            .collect();
+        match images.get(4 * r + 2) {
+            Some((_, i)) if edge.len() == 2 => {
+                // The highlight: pixels above half the brightest (the ambient-lit rest of
+                // the sphere stays below).
+                let top = edge.iter().flatten().copied().max().unwrap_or(0);
+                visible_crop(&edge, i.width, i.height, top / 2)
+            }
+            Some((_, i)) => (0, 0, i.width.min(i.height)),
+            None => (0, 0, 1),
+        }
+    };
+    let crops = [crop(0), crop(1)];
     for (k, (_, img)) in images.iter().enumerate().take(8) {
         let (r, c) = (k as u32 / 4, k as u32 % 4);
         let (x0, y0) = (left + c * (tile + gap), top + r * (tile + gap + 24));
+        let (cx, cy, side) = if c >= 2 {
+            crops[r as usize]
+        } else {
+            (0, 0, img.width.min(img.height))
+        };
         for y in 0..tile {
             for x in 0..tile {
-                // Box-filtered resampling of the image onto the tile.
+                // Box-filtered resampling of the (cropped) image onto the tile.
                 let (sx0, sx1) = (
-                    x * img.width / tile,
-                    ((x + 1) * img.width / tile).max(x * img.width / tile + 1),
+                    cx + x * side / tile,
+                    cx + ((x + 1) * side / tile).max(x * side / tile + 1),
                 );
                 let (sy0, sy1) = (
-                    y * img.height / tile,
-                    ((y + 1) * img.height / tile).max(y * img.height / tile + 1),
+                    cy + y * side / tile,
+                    cy + ((y + 1) * side / tile).max(y * side / tile + 1),
                 );
                 let mut acc = [0f32; 3];
                 let mut n: f32 = 0.0;
@@ -1308,10 +1363,20 @@ pub fn contact_sheet(images: &[(String, Image)]) -> anyhow::Result<Vec<u8>> {
                 16.0,
             ))?;
         }
-        for (k, (name, _)) in images.iter().enumerate().take(8) {
+        for (k, (name, img)) in images.iter().enumerate().take(8) {
             let (r, c) = (k as u32 / 4, k as u32 % 4);
+            let side = if c >= 2 {
+                crops[r as usize].2
+            } else {
+                img.width
+            };
+            let name = if side < img.width.min(img.height) {
+                format!("{name}, zoomed ×{:.1}", img.width as f64 / side as f64)
+            } else {
+                name.clone()
+            };
             e(t(
-                name,
+                &name,
                 left + c * (tile + gap) + 4,
                 top + r * (tile + gap + 24) + tile + 4,
                 12.0,
