@@ -1019,16 +1019,12 @@ impl crate::plot::Chart for TradeoffChart {
             }
             let label = format!("{}{}", m.model, if chosen { " (chosen)" } else { "" });
             let (px, py) = chart.backend_coord(&(x, y));
-            let (w, h) = (7 * label.chars().count() as i32, 16);
-            let mut top = py - h / 2;
-            let left = px + 12;
-            while placed
-                .iter()
-                .any(|&(l, t, r, b)| left < r && left + w > l && top < b && top + h > t)
-            {
-                top += h;
-            }
-            placed.push((left, top, left + w, top + h));
+            let (left, top) = crate::plot::place_label(
+                &mut placed,
+                (px + 2, py),
+                (7 * label.chars().count() as i32, 16),
+                root.dim_in_pixel().0 as i32 - 8,
+            );
             root.draw(&Text::new(
                 label,
                 (left, top),

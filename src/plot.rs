@@ -192,6 +192,31 @@ pub fn tick(v: f64) -> String {
     if s == "-0" { "0".into() } else { s }
 }
 
+/// Place a label of `w`×`h` pixels to the right of the point (px, py), or to its left when it
+/// would pass `right`, so it overlaps no box in `placed` (moving it down a line at a time);
+/// returns its top-left corner and records it.
+pub fn place_label(
+    placed: &mut Vec<(i32, i32, i32, i32)>,
+    (px, py): (i32, i32),
+    (w, h): (i32, i32),
+    right: i32,
+) -> (i32, i32) {
+    let left = if px + 10 + w > right {
+        px - 10 - w
+    } else {
+        px + 10
+    };
+    let mut top = py - h / 2;
+    while placed
+        .iter()
+        .any(|&(l, t, r, b)| left < r && left + w > l && top < b && top + h > t)
+    {
+        top += h;
+    }
+    placed.push((left, top, left + w, top + h));
+    (left, top)
+}
+
 /// PNG bytes of an 8-bit RGB buffer.
 pub fn encode_png(w: u32, h: u32, rgb: &[u8]) -> Result<Vec<u8>> {
     use image::ImageEncoder;

@@ -649,12 +649,11 @@ fn studies(
     let truth = study::parse_truth(ds);
     let rows = study::speed_accuracy(ds, truth.as_ref(), 1);
     let chart = study::speed_chart(
-        &format!("{name}: cost against work, every method × model"),
+        &format!("{name}: cost against fit time, every method × model"),
         &rows,
-        true,
     );
     let (png, svg) = save_chart(&chart, root, &format!("{dir}/speed-accuracy"))?;
-    doc.figure(&png, Some(&svg), "Final cost against work (evaluations × samples) with the Pareto front; fit times are in timings.json");
+    doc.figure(&png, Some(&svg), "Cost above the best found against fit time (measured in this run): left, the solvers on Torrance–Sparrow (D3); right, each model with its best solver; ◆ and the step line mark the Pareto front (no point is both faster and lower)");
     let (md, csv) = study::speed_tables(&rows, false);
     write_bytes_atomic(&root.join(dir).join("speed-accuracy.csv"), csv.as_bytes())?;
     doc.md.push_str(&md);

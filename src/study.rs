@@ -126,49 +126,199 @@ pub fn pareto(points: &[(f64, f64)]) -> Vec<usize> {
     idx
 }
 
-/// The speed–accuracy chart: cost against time (or work, when `deterministic`), one marker
-/// series per method, the Pareto front as a line.
-pub fn speed_chart(title: &str, rows: &[SpeedRow], deterministic: bool) -> XyChart {
-    let x = |r: &SpeedRow| if deterministic { r.work } else { r.seconds };
-    let mut series: Vec<LobeSeries> = Vec::new();
-    for m in ["lm", "gn", "nm", "scipy"] {
-        let pts: Vec<(f64, f64)> = rows
-            .iter()
-            .filter(|r| r.method == m)
-            .map(|r| (x(r), r.cost))
-            .collect();
-        if !pts.is_empty() {
-            series.push(LobeSeries {
-                label: match m {
-                    "lm" => "Levenberg–Marquardt",
-                    "gn" => "Gauss–Newton + line search",
-                    "nm" => "Nelder–Mead",
-                    _ => "scipy least_squares (peer)",
-                }
-                .into(),
-                points: pts,
-                markers: true,
-            });
+/// The speed–accuracy chart in time: two panels, each with x = fit time (log) and y = the
+/// cost above the best any run found, relative (log, floored at 1e-10 so the best shows):
+/// the solvers on Torrance–Sparrow (D3), and every model with its best solver (lowest cost,
+/// then, within 1e-6 relative, the fastest). Colour = method, marker = model, a direct label on every point, and the
+/// Pareto front (non-dominated points) as a step line.
+#[derive(Clone, Debug)]
+pub struct SpeedChart {
+    /// Title.
+    pub title: String,
+    /// Panels: (title, points).
+    pub panels: Vec<(String, Vec<SpeedPoint>)>,
+}
+
+/// One point of [`SpeedChart`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpeedPoint {
+    /// Method name.
+    pub method: String,
+    /// Model label.
+    pub model: String,
+    /// Fit time (s).
+    pub seconds: f64,
+    /// Relative cost above the best found, floored at [`COST_FLOOR`].
+    pub excess: f64,
+    /// On the panel's Pareto front.
+    pub front: bool,
+}
+
+/// Floor of the relative cost excess on the speed chart's log axis.
+pub const COST_FLOOR: f64 = 1e-10;
+
+/// [`SpeedChart`] of the study's rows.
+pub fn speed_chart(title: &str, rows: &[SpeedRow]) -> SpeedChart {
+    let best = rows.iter().map(|r| r.cost).fold(f64::INFINITY, f64::min);
+    let point = |r: &SpeedRow| SpeedPoint {
+        method: r.method.clone(),
+        model: r.model.clone(),
+        seconds: r.seconds.max(1e-6),
+        excess: ((r.cost - best) / best.abs().max(1e-300)).max(COST_FLOOR),
+        front: false,
+    };
+    let ts = "torrance-sparrow (d3)";
+    let solvers: Vec<SpeedPoint> = rows.iter().filter(|r| r.model == ts).map(point).collect();
+    let mut models: Vec<SpeedPoint> = Vec::new();
+    for r in rows {
+        let p = point(r);
+        match models.iter_mut().find(|q| q.model == p.model) {
+            // Lower cost wins; within 1e-6 relative the costs are equal and the faster wins.
+            Some(q)
+                if p.excess < q.excess - 1e-6 * (1.0 + q.excess)
+                    || ((p.excess - q.excess).abs() <= 1e-6 * (1.0 + q.excess)
+                        && p.seconds < q.seconds) =>
+            {
+                *q = p
+            }
+            Some(_) => {}
+            None => models.push(p),
         }
     }
-    let all: Vec<(f64, f64)> = rows.iter().map(|r| (x(r), r.cost)).collect();
-    series.push(LobeSeries {
-        label: "Pareto front".into(),
-        points: pareto(&all).into_iter().map(|i| all[i]).collect(),
-        markers: false,
-    });
-    XyChart {
+    let with_front = |mut pts: Vec<SpeedPoint>| {
+        let xy: Vec<(f64, f64)> = pts.iter().map(|p| (p.seconds, p.excess)).collect();
+        for i in pareto(&xy) {
+            pts[i].front = true;
+        }
+        pts
+    };
+    SpeedChart {
         title: title.to_string(),
-        x_label: if deterministic {
-            "work: evaluations × samples".into()
-        } else {
-            "fit time (s)".into()
-        },
-        y_label: "final cost ½Σr²".into(),
-        series,
-        log_x: true,
-        log_y: true,
-        hline: None,
+        panels: vec![
+            (format!("solvers on {ts}"), with_front(solvers)),
+            (
+                "models, each with its best solver".into(),
+                with_front(models),
+            ),
+        ],
+    }
+}
+
+impl crate::plot::Chart for SpeedChart {
+    fn size(&self) -> (u32, u32) {
+        (1200, 500)
+    }
+
+    fn draw<DB: plotters::prelude::DrawingBackend>(
+        &self,
+        root: &plotters::prelude::DrawingArea<DB, plotters::coord::Shift>,
+    ) -> anyhow::Result<()> {
+        use plotters::prelude::*;
+        let err = |e: &dyn std::fmt::Debug| anyhow::anyhow!("drawing failed: {e:?}");
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let root = root
+            .titled(&self.title, ("sans-serif", 18))
+            .map_err(|e| err(&e))?;
+        let areas = root.split_evenly((1, self.panels.len().max(1)));
+        let colour = |m: &str| match m {
+            "lm" => RGBColor(0, 90, 181),
+            "gn" => RGBColor(220, 50, 32),
+            "nm" => RGBColor(0, 140, 70),
+            _ => RGBColor(90, 90, 90),
+        };
+        let models: Vec<&str> = {
+            let mut v: Vec<&str> = self
+                .panels
+                .iter()
+                .flat_map(|p| p.1.iter().map(|q| q.model.as_str()))
+                .collect();
+            v.dedup();
+            v.sort();
+            v.dedup();
+            v
+        };
+        for ((ptitle, pts), area) in self.panels.iter().zip(&areas) {
+            if pts.is_empty() {
+                continue;
+            }
+            let (x0, x1) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+                (a.min(p.seconds), b.max(p.seconds))
+            });
+            let y1 = pts
+                .iter()
+                .map(|p| p.excess)
+                .fold(COST_FLOOR * 10.0, f64::max);
+            let mut chart = ChartBuilder::on(area)
+                .caption(ptitle, ("sans-serif", 15))
+                .margin(12)
+                .x_label_area_size(44)
+                .y_label_area_size(70)
+                .build_cartesian_2d(
+                    (x0 / 2.0..x1 * 6.0).log_scale(),
+                    (COST_FLOOR / 3.0..y1 * 30.0).log_scale(),
+                )
+                .map_err(|e| err(&e))?;
+            chart
+                .configure_mesh()
+                .x_desc("fit time (s, log)")
+                .y_desc("relative cost above the best found (log)")
+                .x_label_formatter(&|v| crate::model::significant(*v, 2))
+                .y_label_formatter(&|v| format!("{v:.0e}"))
+                .label_style(("sans-serif", 13))
+                .axis_desc_style(("sans-serif", 13))
+                .light_line_style(RGBColor(235, 235, 235))
+                .draw()
+                .map_err(|e| err(&e))?;
+            // The Pareto front as a step line: right along a point's cost, then down.
+            let mut front: Vec<&SpeedPoint> = pts.iter().filter(|p| p.front).collect();
+            front.sort_by(|a, b| a.seconds.total_cmp(&b.seconds));
+            let mut steps = Vec::new();
+            for (k, p) in front.iter().enumerate() {
+                steps.push((p.seconds, p.excess));
+                if let Some(q) = front.get(k + 1) {
+                    steps.push((q.seconds, p.excess));
+                }
+            }
+            chart
+                .draw_series(LineSeries::new(steps, BLACK.mix(0.6).stroke_width(1)))
+                .map_err(|e| err(&e))?;
+            let mut placed = Vec::new();
+            for p in pts {
+                let c = colour(&p.method);
+                let at = (p.seconds, p.excess);
+                let style = c.filled();
+                match models.iter().position(|m| *m == p.model).unwrap_or(0) % 4 {
+                    0 => chart.draw_series(std::iter::once(Circle::new(at, 5, style))),
+                    1 => chart.draw_series(std::iter::once(TriangleMarker::new(at, 7, style))),
+                    2 => chart.draw_series(std::iter::once(Cross::new(at, 5, c.stroke_width(2)))),
+                    _ => chart.draw_series(std::iter::once(
+                        EmptyElement::at(at) + Rectangle::new([(-4, -4), (4, 4)], style),
+                    )),
+                }
+                .map_err(|e| err(&e))?;
+                let label = format!(
+                    "{} · {}{}",
+                    p.method,
+                    p.model,
+                    if p.front { " ◆" } else { "" }
+                );
+                let (px, py) = chart.backend_coord(&at);
+                let right = area.get_base_pixel().0 + area.dim_in_pixel().0 as i32 - 8;
+                let (lx, ly) = crate::plot::place_label(
+                    &mut placed,
+                    (px, py),
+                    (7 * label.chars().count() as i32, 15),
+                    right,
+                );
+                area.draw(&Text::new(
+                    label,
+                    (lx - area.get_base_pixel().0, ly - area.get_base_pixel().1),
+                    ("sans-serif", 12).into_font().color(&c),
+                ))
+                .map_err(|e| err(&e))?;
+            }
+        }
+        Ok(())
     }
 }
 

@@ -142,11 +142,14 @@ fn report_links_are_valid_and_output_is_reproducible() {
 }
 
 /// The files that show measured run times and so differ between runs: timings.json, and each
-/// `brdfit choose` run's JSON, Markdown table and image-error-against-time chart.
+/// `brdfit choose` run's JSON, Markdown table and image-error-against-time chart, and the
+/// speed–accuracy chart (x = fit time).
 fn measures_time(p: &Path) -> bool {
     let s = p.to_string_lossy();
     s == "timings.json"
         || s.ends_with("choose/choose.json")
         || s.ends_with("choose/choose.md")
         || s.contains("/chart.")
+        || s.contains("/speed-accuracy.svg")
+        || s.contains("/speed-accuracy.png")
 }

@@ -31,13 +31,66 @@ fn speed_accuracy_covers_every_method_and_model() {
             r.param_error
         );
     }
-    let chart = study::speed_chart("t", &rows, true);
-    let front = &chart.series.last().unwrap().points;
-    // Every front point is a row, and no row beats a front point in both work and cost.
-    for p in front {
-        assert!(rows.iter().any(|r| r.work == p.0 && r.cost == p.1));
-        assert!(!rows.iter().any(|r| r.work < p.0 && r.cost < p.1));
+    // On the real rows: no point beats a front point in both time and cost.
+    let chart = study::speed_chart("t", &rows);
+    for (_, pts) in &chart.panels {
+        for p in pts.iter().filter(|p| p.front) {
+            assert!(
+                !pts.iter()
+                    .any(|q| q.seconds < p.seconds && q.excess < p.excess)
+            );
+        }
     }
+    // On rows whose answer is known: gn reaches the same cost as lm but slower, so it is
+    // dominated and off the front; nm is faster but worse, so it is on it.
+    let row = |method: &str, model: &str, seconds: f64, cost: f64| study::SpeedRow {
+        method: method.into(),
+        model: model.into(),
+        seconds,
+        work: 0.0,
+        cost,
+        param_error: None,
+    };
+    let known = vec![
+        row("lm", "torrance-sparrow (d3)", 0.01, 1.0),
+        row("gn", "torrance-sparrow (d3)", 0.02, 1.0),
+        row("nm", "torrance-sparrow (d3)", 0.005, 2.0),
+        row("lm", "phong", 0.001, 5.0),
+        row("nm", "phong", 0.003, 4.0),
+    ];
+    let chart = study::speed_chart("known", &known);
+    let front = |panel: usize| -> Vec<String> {
+        chart.panels[panel]
+            .1
+            .iter()
+            .filter(|p| p.front)
+            .map(|p| format!("{} {}", p.method, p.model))
+            .collect()
+    };
+    assert_eq!(
+        front(0),
+        ["lm torrance-sparrow (d3)", "nm torrance-sparrow (d3)"]
+    );
+    // Each model with its best solver: TS by lm (cost 1), Phong by nm (cost 4); both on the
+    // front (Phong is faster, TS lower).
+    let best: Vec<(String, String)> = chart.panels[1]
+        .1
+        .iter()
+        .map(|p| (p.model.clone(), p.method.clone()))
+        .collect();
+    assert_eq!(
+        best,
+        [
+            ("torrance-sparrow (d3)".into(), "lm".into()),
+            ("phong".into(), "nm".into())
+        ]
+    );
+    assert_eq!(front(1).len(), 2);
+    // The best point sits on the floor of the log axis; the others at their relative excess.
+    assert_eq!(chart.panels[0].1[0].excess, study::COST_FLOOR);
+    assert!((chart.panels[0].1[2].excess - 1.0).abs() < 1e-12);
+    let dir = tempfile::tempdir().unwrap();
+    brdfit::plot::save(&chart, &dir.path().join("speed")).unwrap();
     let (md, csv) = study::speed_tables(&rows, false);
     assert_eq!(md.lines().count(), 2 + 3 * models);
     assert_eq!(csv.lines().count(), 1 + 3 * models);

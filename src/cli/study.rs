@@ -121,7 +121,7 @@ pub(crate) fn run_study(cmd: StudyCommand) -> Result<()> {
             }
             let title = format!("Speed against accuracy: {}", data.display());
             save_chart(
-                &study::speed_chart(&title, &rows, false),
+                &study::speed_chart(&title, &rows),
                 &output.join("speed-accuracy"),
             )?;
             let (md, csv) = study::speed_tables(&rows, true);
