@@ -502,10 +502,12 @@ fn plots(doc: &mut Doc, set: &DataSet, fits: &[FitResult], ts_i: usize, rec: usi
             if synthetic { "linear" } else { "logarithmic" }
         ),
     );
+    doc.p(&lobe_takeaway(&chart));
     let pts = plot::residual_points(ds, 0, &ts.model_for(0), true);
     for (file_name, chart) in plot::residual_charts(&ts.label(), &pts) {
         let (png, svg) = save_chart(&chart, root, &format!("{dir}/{file_name}"))?;
         doc.figure(&png, Some(&svg), &chart.title);
+        doc.p(&residual_takeaway(&chart));
     }
     let (chart, apts) = plot::albedo_chart(&ts.label(), &ts.model_for(0));
     let (png, svg) = save_chart(&chart, root, &format!("{dir}/albedo"))?;
@@ -518,6 +520,14 @@ fn plots(doc: &mut Doc, set: &DataSet, fits: &[FitResult], ts_i: usize, rec: usi
         doc.p(&format!(
             "⚠ The fitted model creates energy: albedo {:.3} at θi = {}°.",
             p.1, p.0
+        ));
+    } else if let (Some(a), Some(b)) = (apts.first(), apts.last()) {
+        doc.p(&format!(
+            "Takeaway: the fit reflects {} of the light at normal incidence and {} at θi = {}°, \
+             within the energy limit.",
+            crate::model::significant(a.1, 3),
+            crate::model::significant(b.1, 3),
+            b.0
         ));
     }
 
@@ -654,6 +664,27 @@ fn studies(
     );
     let (png, svg) = save_chart(&chart, root, &format!("{dir}/speed-accuracy"))?;
     doc.figure(&png, Some(&svg), "Cost above the best found against fit time (measured in this run): left, the solvers on Torrance–Sparrow (D3); right, each model with its best solver; ◆ and the step line mark the Pareto front (no point is both faster and lower)");
+    {
+        // Deterministic (no times): which solvers reach the lowest cost, and the best model.
+        let best = rows.iter().map(|r| r.cost).fold(f64::INFINITY, f64::min);
+        let reach: Vec<&str> = rows
+            .iter()
+            .filter(|r| r.model == "torrance-sparrow (d3)" && r.cost <= best * (1.0 + 1e-6))
+            .map(|r| r.method.as_str())
+            .collect();
+        let lowest = rows
+            .iter()
+            .min_by(|a, b| a.cost.total_cmp(&b.cost))
+            .map_or(String::new(), |r| r.model.clone());
+        doc.p(&format!(
+            "Takeaway: the lowest cost is {lowest}'s; on Torrance–Sparrow (D3) {} reach it.",
+            if reach.is_empty() {
+                "no solver".to_string()
+            } else {
+                reach.join(", ")
+            }
+        ));
+    }
     let (md, csv) = study::speed_tables(&rows, false);
     write_bytes_atomic(&root.join(dir).join("speed-accuracy.csv"), csv.as_bytes())?;
     doc.md.push_str(&md);
@@ -685,6 +716,24 @@ fn studies(
     );
     let (png, svg) = save_chart(&chart, root, &format!("{dir}/stability"))?;
     doc.figure(&png, Some(&svg), "Stability as a heatmap: configurations (noise × sampling) against methods, each cell the share of seeded random starts reaching the global minimum, failures classified");
+    {
+        let all_reached = |m: crate::fit::lsq::Method, g: bool| {
+            srows
+                .iter()
+                .filter(|r| r.method == m && r.global == g && r.hits == r.starts)
+                .count()
+        };
+        let configs = srows.len() / study::STABILITY_COLUMNS.len().max(1);
+        doc.p(&format!(
+            "Takeaway: every start reached the minimum in {} of {configs} configurations with \
+             Levenberg–Marquardt and the global initialisation, {} with Gauss–Newton and {} with \
+             Nelder–Mead; from local starts alone, Levenberg–Marquardt in {}.",
+            all_reached(crate::fit::lsq::Method::Lm, true),
+            all_reached(crate::fit::lsq::Method::GaussNewton, true),
+            all_reached(crate::fit::lsq::Method::NelderMead, true),
+            all_reached(crate::fit::lsq::Method::Lm, false)
+        ));
+    }
     let (md, csv) = study::stability_tables(&srows);
     write_bytes_atomic(&root.join(dir).join("stability.csv"), csv.as_bytes())?;
     doc.md.push_str(&md);
@@ -764,6 +813,66 @@ fn assemble(
         (serde_json::to_string_pretty(&Value::Object(timings))? + "\n").as_bytes(),
     )?;
     Ok(())
+}
+
+/// One line under the lobe chart: where each panel's first fitted curve peaks relative to
+/// the mirror direction, and how many measured samples lie near the plane.
+fn lobe_takeaway(chart: &plot::LobeChart) -> String {
+    let parts: Vec<String> = chart
+        .panels
+        .iter()
+        .map(|p| {
+            let peak = p.series.first().and_then(|s| {
+                s.points
+                    .iter()
+                    .filter(|q| q.1.is_finite())
+                    .max_by(|a, b| a.1.total_cmp(&b.1))
+            });
+            let measured = p
+                .series
+                .iter()
+                .filter(|s| s.markers)
+                .map(|s| s.points.len())
+                .sum::<usize>();
+            // Signed θo < 0 is the mirror side; the mirror direction is at −θi.
+            match peak {
+                Some(q) => format!(
+                    "at θi = {}° the fit peaks {}° from the mirror direction{} ({measured} \
+                     measured sample{} near the plane)",
+                    p.theta_i_deg,
+                    crate::model::significant((q.0 + p.theta_i_deg).abs(), 2),
+                    if q.0 < -p.theta_i_deg - 0.5 {
+                        ", toward grazing"
+                    } else {
+                        ""
+                    },
+                    if measured == 1 { "" } else { "s" }
+                ),
+                None => format!("at θi = {}° nothing to show", p.theta_i_deg),
+            }
+        })
+        .collect();
+    format!("Takeaway: {}.", parts.join("; "))
+}
+
+/// One line under a residual chart: the largest binned median and where it is.
+fn residual_takeaway(chart: &plot::XyChart) -> String {
+    let median = chart.series.iter().find(|s| s.label == "binned median");
+    let worst = median.and_then(|s| {
+        s.points
+            .iter()
+            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+    });
+    match worst {
+        Some(w) => format!(
+            "Takeaway: the binned median residual stays within ±{} (loss units); its largest \
+             departure is at {} = {}°.",
+            crate::model::significant(w.1.abs(), 2),
+            chart.x_label.split(' ').next().unwrap_or("x"),
+            crate::model::significant(w.0, 3)
+        ),
+        None => "Takeaway: too few samples for a binned median.".into(),
+    }
 }
 
 /// Incidence angles for the lobe plots: the two measured θi closest to 30° and 60° that have
