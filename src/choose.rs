@@ -250,6 +250,20 @@ pub struct CaseResult {
     pub models: Vec<ModelRow>,
 }
 
+impl CaseResult {
+    /// The answer in words: "phong is enough", or "no model is within the threshold; the
+    /// closest is torrance-sparrow-d3".
+    pub fn answer(&self) -> String {
+        match &self.chosen {
+            Some(m) => format!("{m} is enough"),
+            None => format!(
+                "no model is within the threshold; the closest is {}",
+                self.closest
+            ),
+        }
+    }
+}
+
 /// The whole answer, as written to `choose.json`.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct ChooseResult {
@@ -694,13 +708,7 @@ pub fn markdown(r: &ChooseResult) -> String {
         r.threshold.value
     );
     for c in &r.cases {
-        let answer = match &c.chosen {
-            Some(m) => format!("**{m}** is enough"),
-            None => format!(
-                "no model is within the threshold; the closest is **{}**",
-                c.closest
-            ),
-        };
+        let answer = c.answer();
         let _ = writeln!(
             s,
             "### {} lit: {answer}\n\nReference: {}; {} lit pixels in {} scene-weighted \
@@ -849,10 +857,7 @@ fn contact_sheet(
                 ("sans-serif", size).into_font(),
             ))
         };
-        let answer = match &case.chosen {
-            Some(m) => format!("{m} is enough"),
-            None => format!("no model within the threshold; closest: {}", case.closest),
-        };
+        let answer = case.answer();
         let zoom = if side < iw.min(ih) {
             format!(", images zoomed ×{:.1}", iw.min(ih) as f64 / side as f64)
         } else {
@@ -932,9 +937,8 @@ impl crate::plot::Chart for TradeoffChart {
         root: &plotters::prelude::DrawingArea<DB, plotters::coord::Shift>,
     ) -> anyhow::Result<()> {
         use plotters::prelude::*;
-        let err = |e: &dyn std::fmt::Debug| anyhow::anyhow!("drawing failed: {e:?}");
         let metric = Metric::from_key(&self.threshold.metric).unwrap_or(Metric::FlipP99);
-        root.fill(&WHITE).map_err(|e| err(&e))?;
+        root.fill(&WHITE).map_err(crate::plot::err)?;
         let pts: Vec<(f64, f64, &ModelRow)> = self
             .case
             .models
@@ -969,7 +973,7 @@ impl crate::plot::Chart for TradeoffChart {
             .x_label_area_size(46)
             .y_label_area_size(64)
             .build_cartesian_2d((lx0..lx1).log_scale(), 0.0..y1 * 1.12)
-            .map_err(|e| err(&e))?;
+            .map_err(crate::plot::err)?;
         chart
             .configure_mesh()
             .x_desc("fit + render time (s, log scale)")
@@ -979,20 +983,20 @@ impl crate::plot::Chart for TradeoffChart {
             .axis_desc_style(("sans-serif", 14))
             .light_line_style(RGBColor(235, 235, 235))
             .draw()
-            .map_err(|e| err(&e))?;
+            .map_err(crate::plot::err)?;
         chart
             .draw_series(std::iter::once(PathElement::new(
                 vec![(lx0, self.threshold.value), (lx1, self.threshold.value)],
                 RGBColor(200, 0, 0).stroke_width(1),
             )))
-            .map_err(|e| err(&e))?;
+            .map_err(crate::plot::err)?;
         chart
             .draw_series(std::iter::once(Text::new(
                 format!("threshold {}", self.threshold.value),
                 (lx0 * 1.05, self.threshold.value + 0.02 * y1),
                 ("sans-serif", 13).into_font().color(&RGBColor(200, 0, 0)),
             )))
-            .map_err(|e| err(&e))?;
+            .map_err(crate::plot::err)?;
         // Points first, then direct labels placed greedily so none overlaps another.
         let mut placed: Vec<(i32, i32, i32, i32)> = Vec::new();
         let mut order: Vec<usize> = (0..pts.len()).collect();
@@ -1007,7 +1011,7 @@ impl crate::plot::Chart for TradeoffChart {
             };
             chart
                 .draw_series(std::iter::once(Circle::new((x, y), 4, colour.filled())))
-                .map_err(|e| err(&e))?;
+                .map_err(crate::plot::err)?;
             if chosen {
                 chart
                     .draw_series(std::iter::once(Circle::new(
@@ -1015,7 +1019,7 @@ impl crate::plot::Chart for TradeoffChart {
                         9,
                         RGBColor(200, 0, 0).stroke_width(2),
                     )))
-                    .map_err(|e| err(&e))?;
+                    .map_err(crate::plot::err)?;
             }
             let label = format!("{}{}", m.model, if chosen { " (chosen)" } else { "" });
             let (px, py) = chart.backend_coord(&(x, y));
@@ -1030,7 +1034,7 @@ impl crate::plot::Chart for TradeoffChart {
                 (left, top),
                 ("sans-serif", 13).into_font().color(&colour),
             ))
-            .map_err(|e| err(&e))?;
+            .map_err(crate::plot::err)?;
         }
         Ok(())
     }

@@ -35,7 +35,8 @@ pub trait Chart {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()>;
 }
 
-fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+/// A drawing error as an `anyhow::Error` (for `map_err` in every chart's `draw`).
+pub(crate) fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
     anyhow!("drawing failed: {e:?}")
 }
 

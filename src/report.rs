@@ -244,21 +244,7 @@ fn summary_row(
         .iter()
         .filter(|f| f.verification.as_ref().is_some_and(|v| v.verified))
         .count();
-    let mut flags: Vec<String> = f
-        .at_bound
-        .iter()
-        .map(|(n, _)| format!("bound:{n}"))
-        .collect();
-    flags.extend(
-        f.ranges
-            .iter()
-            .filter(|r| {
-                f.warnings
-                    .iter()
-                    .any(|w| w.starts_with(&format!("{} ", r.0)))
-            })
-            .map(|r| format!("weak:{}", r.0)),
-    );
+    let mut flags = f.flags();
     let unusable = fits.iter().filter(|f| !f.usable()).count();
     if unusable > 0 {
         flags.push(format!("{unusable} fit(s) not usable"));
@@ -605,13 +591,7 @@ fn scene_needs(doc: &mut Doc, set: &DataSet) -> Result<Vec<String>> {
         r.threshold.value
     ));
     for c in &r.cases {
-        let answer = match &c.chosen {
-            Some(m) => format!("{} lit: {m} is enough.", c.case),
-            None => format!(
-                "{} lit: no model is within the threshold; the closest is {}.",
-                c.case, c.closest
-            ),
-        };
+        let answer = format!("{} lit: {}.", c.case, c.answer());
         doc.p(&answer);
         let sheet = format!("{dir}/choose/{}/sheet.png", c.case);
         doc.figure(

@@ -214,11 +214,10 @@ impl crate::plot::Chart for SpeedChart {
         root: &plotters::prelude::DrawingArea<DB, plotters::coord::Shift>,
     ) -> anyhow::Result<()> {
         use plotters::prelude::*;
-        let err = |e: &dyn std::fmt::Debug| anyhow::anyhow!("drawing failed: {e:?}");
-        root.fill(&WHITE).map_err(|e| err(&e))?;
+        root.fill(&WHITE).map_err(crate::plot::err)?;
         let root = root
             .titled(&self.title, ("sans-serif", 18))
-            .map_err(|e| err(&e))?;
+            .map_err(crate::plot::err)?;
         let areas = root.split_evenly((1, self.panels.len().max(1)));
         let colour = |m: &str| match m {
             "lm" => RGBColor(0, 90, 181),
@@ -257,7 +256,7 @@ impl crate::plot::Chart for SpeedChart {
                     (x0 / 2.0..x1 * 6.0).log_scale(),
                     (COST_FLOOR / 3.0..y1 * 30.0).log_scale(),
                 )
-                .map_err(|e| err(&e))?;
+                .map_err(crate::plot::err)?;
             chart
                 .configure_mesh()
                 .x_desc("fit time (s, log)")
@@ -268,7 +267,7 @@ impl crate::plot::Chart for SpeedChart {
                 .axis_desc_style(("sans-serif", 13))
                 .light_line_style(RGBColor(235, 235, 235))
                 .draw()
-                .map_err(|e| err(&e))?;
+                .map_err(crate::plot::err)?;
             // The Pareto front as a step line: right along a point's cost, then down.
             let mut front: Vec<&SpeedPoint> = pts.iter().filter(|p| p.front).collect();
             front.sort_by(|a, b| a.seconds.total_cmp(&b.seconds));
@@ -281,7 +280,7 @@ impl crate::plot::Chart for SpeedChart {
             }
             chart
                 .draw_series(LineSeries::new(steps, BLACK.mix(0.6).stroke_width(1)))
-                .map_err(|e| err(&e))?;
+                .map_err(crate::plot::err)?;
             let mut placed = Vec::new();
             for p in pts {
                 let c = colour(&p.method);
@@ -295,7 +294,7 @@ impl crate::plot::Chart for SpeedChart {
                         EmptyElement::at(at) + Rectangle::new([(-4, -4), (4, 4)], style),
                     )),
                 }
-                .map_err(|e| err(&e))?;
+                .map_err(crate::plot::err)?;
                 let label = format!(
                     "{} · {}{}",
                     p.method,
@@ -315,7 +314,7 @@ impl crate::plot::Chart for SpeedChart {
                     (lx - area.get_base_pixel().0, ly - area.get_base_pixel().1),
                     ("sans-serif", 12).into_font().color(&c),
                 ))
-                .map_err(|e| err(&e))?;
+                .map_err(crate::plot::err)?;
             }
         }
         Ok(())
@@ -660,30 +659,29 @@ impl crate::plot::Chart for StabilityHeatmap {
         root: &plotters::prelude::DrawingArea<DB, plotters::coord::Shift>,
     ) -> anyhow::Result<()> {
         use plotters::prelude::*;
-        let err = |e: &dyn std::fmt::Debug| anyhow::anyhow!("drawing failed: {e:?}");
-        root.fill(&WHITE).map_err(|e| err(&e))?;
+        root.fill(&WHITE).map_err(crate::plot::err)?;
         let (left, top, cw, ch) = (230i32, 70i32, 110i32, 30i32);
         let font = |size: f64| ("sans-serif", size).into_font();
         root.draw(&Text::new(self.title.clone(), (12, 10), font(18.0)))
-            .map_err(|e| err(&e))?;
+            .map_err(crate::plot::err)?;
         root.draw(&Text::new(
             "share of starts reaching the global minimum (cell: hits/starts; failures: b wrong basin, s stalled, ⊥ at a bound, ∞ non-finite)",
             (12, 36),
             font(12.0),
         ))
-        .map_err(|e| err(&e))?;
+        .map_err(crate::plot::err)?;
         for (c, label) in self.cols.iter().enumerate() {
             root.draw(&Text::new(
                 label.clone(),
                 (left + c as i32 * cw + 6, top - 16),
                 font(13.0),
             ))
-            .map_err(|e| err(&e))?;
+            .map_err(crate::plot::err)?;
         }
         for (r, label) in self.rows.iter().enumerate() {
             let y = top + r as i32 * ch;
             root.draw(&Text::new(label.clone(), (12, y + 8), font(13.0)))
-                .map_err(|e| err(&e))?;
+                .map_err(crate::plot::err)?;
             for c in 0..self.cols.len() {
                 let (hits, starts, text) = &self.cells[r * self.cols.len() + c];
                 let share = if *starts > 0 {
@@ -702,9 +700,9 @@ impl crate::plot::Chart for StabilityHeatmap {
                     [(x, y), (x + cw - 2, y + ch - 2)],
                     colour.mix(0.55).filled(),
                 ))
-                .map_err(|e| err(&e))?;
+                .map_err(crate::plot::err)?;
                 root.draw(&Text::new(text.clone(), (x + 6, y + 8), font(13.0)))
-                    .map_err(|e| err(&e))?;
+                    .map_err(crate::plot::err)?;
             }
         }
         Ok(())

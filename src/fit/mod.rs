@@ -258,6 +258,27 @@ impl FitResult {
         m
     }
 
+    /// Short flags: `bound:NAME` for a parameter on a bound, `weak:NAME` for one the data
+    /// determine only weakly (its range within 1 % of the minimum cost is wide).
+    pub fn flags(&self) -> Vec<String> {
+        let mut flags: Vec<String> = self
+            .at_bound
+            .iter()
+            .map(|(n, _)| format!("bound:{n}"))
+            .collect();
+        flags.extend(
+            self.ranges
+                .iter()
+                .filter(|r| {
+                    self.warnings
+                        .iter()
+                        .any(|w| w.starts_with(&format!("{} ", r.0)))
+                })
+                .map(|r| format!("weak:{}", r.0)),
+        );
+        flags
+    }
+
     /// Value of parameter `name`.
     pub fn get(&self, name: &str) -> Option<f64> {
         self.params.iter().find(|(k, _)| k == name).map(|(_, v)| *v)
@@ -2168,21 +2189,7 @@ pub fn format_channels(fits: &[FitResult]) -> String {
         for (_, v) in f.params.iter().take(names.len()) {
             let _ = write!(s, " {:>10}", crate::model::readable(*v));
         }
-        let mut flags: Vec<String> = f
-            .at_bound
-            .iter()
-            .map(|(n, _)| format!("bound:{n}"))
-            .collect();
-        flags.extend(
-            f.ranges
-                .iter()
-                .filter(|r| {
-                    f.warnings
-                        .iter()
-                        .any(|w| w.starts_with(&format!("{} ", r.0)))
-                })
-                .map(|r| format!("weak:{}", r.0)),
-        );
+        let mut flags = f.flags();
         if !f.usable() {
             flags.push("NOT USABLE".into());
         }
