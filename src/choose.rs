@@ -464,11 +464,7 @@ pub fn choose(
                 metric: opts.threshold.metric.key().into(),
                 value: opts.threshold.value,
             },
-            channel: ds
-                .channels
-                .first()
-                .map(|c| c.name.clone())
-                .unwrap_or_default(),
+            channel: ds.channel_label(0),
             table: r.table.dims,
             fill_share: r.table.fill_share(),
             fill_model: r.fill_name.clone(),
@@ -694,11 +690,7 @@ pub fn markdown(r: &ChooseResult) -> String {
         s,
         "Channel: {}; measurement resampled onto a {}×{}×{} half/difference table, {:.1} % of cells \
          filled from the {} fit. Threshold: {} ≤ {}.\n",
-        if r.channel.is_empty() {
-            "the single channel"
-        } else {
-            &r.channel
-        },
+        r.channel,
         r.table.0[0],
         r.table.0[1],
         r.table.0[2],

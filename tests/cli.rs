@@ -824,3 +824,25 @@ fn readme_tour_runs_twice() {
         }
     }
 }
+
+/// One name for a file's single unnamed channel everywhere: the quantity's column (`brdf`),
+/// in the summary, the fit table and the fit JSON.
+#[test]
+fn single_channel_has_one_name() {
+    let o = brdfit(&["info", "data/blinn-mgo.csv"]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("channels:    1 (brdf)"));
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("f.json");
+    let o = brdfit(&[
+        "fit",
+        "data/blinn-mgo.csv",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("on channel brdf"), "{out}");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(v["channel"], "brdf");
+    assert!(!out.contains("(single)") && !out.contains("channel value"));
+}

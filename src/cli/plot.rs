@@ -127,7 +127,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
             for f in &fit {
                 for r in read_fits(f)? {
                     let channel = match r.channel.as_str() {
-                        "" | "value" => String::new(),
+                        "" | "value" | "brdf" | "brdf_cos" | "rfactor" => String::new(),
                         c => format!(" ({c})"),
                     };
                     models.push((format!("{} fit{channel}", r.label()), r.model_for(0)));

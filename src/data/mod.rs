@@ -361,17 +361,20 @@ impl Dataset {
         Ok(out)
     }
 
-    /// Comma-separated channel names (`(single)` for an unnamed one).
+    /// The name shown for channel `c`: its own, or for the one unnamed channel of a file the
+    /// quantity's column name (`brdf`, `brdf_cos` or `rfactor`), as the file calls it. The one
+    /// rule for every output (summary, fit tables and JSON, plots, choose).
+    pub fn channel_label(&self, c: usize) -> String {
+        match self.channels.get(c) {
+            Some(ch) if !ch.name.is_empty() => ch.name.clone(),
+            _ => self.quantity.column().to_string(),
+        }
+    }
+
+    /// Comma-separated channel names ([`Dataset::channel_label`]).
     pub fn channel_names(&self) -> String {
-        self.channels
-            .iter()
-            .map(|c| {
-                if c.name.is_empty() {
-                    "(single)".to_string()
-                } else {
-                    c.name.clone()
-                }
-            })
+        (0..self.channels.len())
+            .map(|c| self.channel_label(c))
             .collect::<Vec<_>>()
             .join(", ")
     }
@@ -890,9 +893,9 @@ pub fn summary(ds: &Dataset) -> String {
         deg(b),
         po.len()
     );
-    for c in &ds.channels {
+    for (k, c) in ds.channels.iter().enumerate() {
         let (a, b) = range(&c.values);
-        let name = if c.name.is_empty() { "value" } else { &c.name };
+        let name = ds.channel_label(k);
         let _ = writeln!(s, "range {name:<6} {a:.6e} … {b:.6e}");
     }
     let policy = match ds.negative_policy {

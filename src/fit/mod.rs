@@ -405,13 +405,8 @@ fn channel_rows(ds: &Dataset, c: usize, opts: &FitOptions) -> ChannelRows {
     let all_zero = rows.target.iter().all(|&t| t == 0.0);
     let first = rows.nl.first().copied();
     let one_incidence = first.is_some_and(|c0| rows.nl.iter().all(|c| (c - c0).abs() < 1e-12));
-    let name = ds.channels[c].name.clone();
     ChannelRows {
-        name: if name.is_empty() {
-            "value".into()
-        } else {
-            name
-        },
+        name: ds.channel_label(c),
         rows,
         one_incidence: one_incidence.then(|| first.unwrap_or(1.0).acos()),
         all_zero,
