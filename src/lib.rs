@@ -4,8 +4,10 @@
 //!
 //! The data flows through the modules in order: [`data`] (samples and loaders) →
 //! [`model`] (the BRDFs of Phong 1975, Blinn 1977 and GGX–Smith, with analytic gradients) →
-//! fit, plot, render and report. [`simulate`] makes synthetic samples; [`output`] writes files
-//! atomically. The items most programs need are re-exported here.
+//! fit, plot, render, choose and report. [`simulate`] makes synthetic samples. The items most
+//! programs need are re-exported here; modules marked hidden in these docs (`output`,
+//! `setting`, `fit::lsq`, `fit::problem`, `data::merl`) are public only because the binary
+//! and the integration tests are separate crates, and are not library API.
 //!
 //! Fitting Blinn's Torrance–Sparrow model to samples from Rust:
 //!
@@ -38,10 +40,14 @@ pub mod fit;
 pub mod inverse;
 pub(crate) mod lanes;
 pub mod model;
+// Public for the binary and the integration tests (separate crates), not library API.
+#[doc(hidden)]
 pub mod output;
 pub mod plot;
 pub mod render;
 pub mod report;
+// Public for the binary and the integration tests (separate crates), not library API.
+#[doc(hidden)]
 pub mod setting;
 pub mod simulate;
 pub mod study;
@@ -51,4 +57,5 @@ pub use fit::{FitError, FitOptions, FitResult, fit};
 pub use model::{Distribution, Geometry, Model, ModelKind};
 pub use render::Scene;
 pub use report::{ReportOptions, report};
+pub use setting::Setting;
 pub use simulate::simulate;

@@ -10,6 +10,8 @@
 mod astm;
 mod cornell;
 mod csvfmt;
+// Public for the binary and the integration tests (separate crates), not library API.
+#[doc(hidden)]
 pub mod merl;
 
 use std::collections::BTreeMap;

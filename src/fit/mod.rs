@@ -13,7 +13,11 @@
 //!    determine.
 
 mod json;
+// Public for the binary and the integration tests (separate crates), not library API.
+#[doc(hidden)]
 pub mod lsq;
+// Public for the binary and the integration tests (separate crates), not library API.
+#[doc(hidden)]
 pub mod problem;
 
 use crate::data::Dataset;
@@ -21,8 +25,10 @@ use crate::lanes::{self, LANES};
 use crate::model::Geometry;
 use crate::model::{Distribution, Model, ModelKind, ParamSpec, Role, Scale, readable};
 use crate::setting::Setting;
-use lsq::{Limits, Method, Problem, Robust, Solution};
-use problem::{BrdfProblem, Loss, Rows, Slot, Transform};
+pub use lsq::{Limits, Method};
+use lsq::{Problem, Robust, Solution};
+pub use problem::Loss;
+use problem::{BrdfProblem, Rows, Slot, Transform};
 use std::time::Instant;
 
 /// A fit that cannot be run, with the fix.
