@@ -1015,11 +1015,12 @@ impl crate::plot::Chart for TradeoffChart {
             }
             let label = format!("{}{}", m.model, if chosen { " (chosen)" } else { "" });
             let (px, py) = chart.backend_coord(&(x, y));
+            let (xr, yr) = chart.plotting_area().get_pixel_range();
             let (left, top) = crate::plot::place_label(
                 &mut placed,
                 (px + 2, py),
                 (7 * label.chars().count() as i32, 16),
-                root.dim_in_pixel().0 as i32 - 8,
+                (xr.start, yr.start, xr.end, yr.end),
             );
             root.draw(&Text::new(
                 label,

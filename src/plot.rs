@@ -193,29 +193,44 @@ pub fn tick(v: f64) -> String {
     if s == "-0" { "0".into() } else { s }
 }
 
-/// Place a label of `w`×`h` pixels to the right of the point (px, py), or to its left when it
-/// would pass `right`, so it overlaps no box in `placed` (moving it down a line at a time);
-/// returns its top-left corner and records it.
+/// Place a label of `w`×`h` pixels beside the point (px, py), inside `bounds` (left, top,
+/// right, bottom: the plotting area) and overlapping no box in `placed`: the first free spot
+/// of right, then left of the point, on its line, then one line up, one down, two up, …
+/// (up to 12 lines away); where none is free, right of the point on its line. Records the box
+/// and returns its top-left corner; a caller draws a leader line when the label left the
+/// point's line ([`needs_leader`]).
 pub fn place_label(
     placed: &mut Vec<(i32, i32, i32, i32)>,
     (px, py): (i32, i32),
     (w, h): (i32, i32),
-    right: i32,
+    (bl, bt, br, bb): (i32, i32, i32, i32),
 ) -> (i32, i32) {
-    let left = if px + 10 + w > right {
-        px - 10 - w
-    } else {
-        px + 10
+    let free = |l: i32, t: i32| {
+        l >= bl
+            && l + w <= br
+            && t >= bt
+            && t + h <= bb
+            && !placed
+                .iter()
+                .any(|&(a, b, c, d)| l < c && l + w > a && t < d && t + h > b)
     };
-    let mut top = py - h / 2;
-    while placed
-        .iter()
-        .any(|&(l, t, r, b)| left < r && left + w > l && top < b && top + h > t)
-    {
-        top += h;
-    }
-    placed.push((left, top, left + w, top + h));
-    (left, top)
+    let base = py - h / 2;
+    let spot = (0..25)
+        .map(|k| if k % 2 == 1 { -(k + 1) / 2 } else { k / 2 })
+        .flat_map(|line| [(px + 10, base + line * h), (px - 10 - w, base + line * h)])
+        .find(|&(l, t)| free(l, t))
+        .unwrap_or((
+            (px + 10).min(br - w).max(bl),
+            base.clamp(bt, (bb - h).max(bt)),
+        ));
+    placed.push((spot.0, spot.1, spot.0 + w, spot.1 + h));
+    spot
+}
+
+/// Whether a label placed at `top` (height `h`) left the line of the point at `py`, so that
+/// a leader line should join them.
+pub fn needs_leader(py: i32, top: i32, h: i32) -> bool {
+    (top + h / 2 - py).abs() > h / 2 + 1
 }
 
 /// PNG bytes of an 8-bit RGB buffer.
@@ -619,6 +634,56 @@ pub fn albedo(model: &Model, theta_i_deg: f64) -> f64 {
     sum
 }
 
+/// Rings (equal projected solid angle) and relative-azimuth sectors of the cells
+/// [`measured_albedo`] integrates over.
+pub const ALBEDO_CELLS: (usize, usize) = (6, 8);
+
+/// Directional albedo estimated from the samples themselves, at each incidence angle the
+/// sampling allows: the samples within ±2.5° of θi = 0°, 5°, …, 85° are sorted into cells of
+/// equal projected solid angle over the outgoing hemisphere (6 rings with sin²θo = k/6 × 8
+/// sectors of relative azimuth |φo − φi| in [0°, 180°], folded by isotropy), and
+/// ρ(θi) ≈ (π / cells) Σ_cells mean f_r (each cell has projected solid angle π/48 counting
+/// both azimuth halves). Only where every cell holds two samples or more and no sample
+/// outweighs the rest of its cell (the lobe is resolved) is a value given: a file sampled in
+/// the plane of incidence alone, with an empty region of the hemisphere, or on a grid coarser
+/// than its highlight (MERL aluminium's 15° azimuth steps) has none there. Returns (θi in
+/// degrees, ρ).
+pub fn measured_albedo(ds: &Dataset, c: usize) -> Vec<(f64, f64)> {
+    let (rings, sectors) = ALBEDO_CELLS;
+    let cells = rings * sectors;
+    let vals = ds.brdf_values(c);
+    let mut out = Vec::new();
+    for k in 0..18 {
+        let centre = 5.0 * k as f64;
+        let mut sum = vec![0.0; cells];
+        let mut count = vec![0usize; cells];
+        let mut peak = vec![0.0f64; cells];
+        for (j, v) in vals.iter().enumerate() {
+            let [ti, pi, to, po] = ds.angles(j);
+            if !v.is_finite() || (ti.to_degrees() - centre).abs() > 2.5 || to >= 0.5 * PI {
+                continue;
+            }
+            let ring = ((to.sin().powi(2) * rings as f64) as usize).min(rings - 1);
+            let dphi = (po - pi).rem_euclid(2.0 * PI);
+            let dphi = if dphi > PI { 2.0 * PI - dphi } else { dphi };
+            let sector = ((dphi / PI * sectors as f64) as usize).min(sectors - 1);
+            let i = ring * sectors + sector;
+            sum[i] += v;
+            count[i] += 1;
+            peak[i] = peak[i].max(*v);
+        }
+        // The lobe must be resolved: in no cell may one sample outweigh all the others
+        // together (a sharp peak caught by one sample of a coarse grid stands in for an area
+        // far larger than the peak, and the estimate would be far too high).
+        let resolved = (0..cells).all(|i| count[i] >= 2 && 2.0 * peak[i] <= sum[i]);
+        if resolved {
+            let rho: f64 = sum.iter().zip(&count).map(|(s, n)| s / *n as f64).sum();
+            out.push((centre, PI / cells as f64 * rho));
+        }
+    }
+    out
+}
+
 /// Generic x–y chart with several series (lines or markers), for residual, albedo and study
 /// charts.
 #[derive(Clone, Debug)]
@@ -762,26 +827,38 @@ impl Chart for XyChart {
 }
 
 /// Albedo chart of a model: ρ(θi) for θi = 0…85°, with the energy limit ρ = 1 marked.
-pub fn albedo_chart(label: &str, model: &Model) -> (XyChart, Vec<(f64, f64)>) {
+pub fn albedo_chart(
+    label: &str,
+    model: &Model,
+    measured: &[(f64, f64)],
+) -> (XyChart, Vec<(f64, f64)>) {
     let pts: Vec<(f64, f64)> = (0..=17)
         .map(|k| (5.0 * k as f64, albedo(model, 5.0 * k as f64)))
         .collect();
+    let mut series = vec![LobeSeries {
+        label: format!("{model}"),
+        points: pts.clone(),
+        markers: false,
+    }];
+    if !measured.is_empty() {
+        series.push(LobeSeries {
+            label: "estimated from the samples (cell quadrature)".into(),
+            points: measured.to_vec(),
+            markers: true,
+        });
+    }
     let chart = XyChart {
         title: format!("Directional albedo of {label}"),
         x_label: "incidence angle θi (degrees)".into(),
         y_label: "directional albedo ρ(θi) = ∫ f_r cosθo dω".into(),
-        series: vec![LobeSeries {
-            label: format!("{model}"),
-            points: pts.clone(),
-            markers: false,
-        }],
+        series,
         log_x: false,
         log_y: false,
         hline: None,
     };
-    // The axis follows the curve; the energy limit is drawn only where it is near enough to
-    // be read against it (a curve at 0.02–0.3 would otherwise lie on the bottom edge).
-    let top = pts.iter().map(|p| p.1).fold(0.0, f64::max);
+    // The axis follows the curves; the energy limit is drawn only where it is near enough to
+    // be read against them (a curve at 0.02–0.3 would otherwise lie on the bottom edge).
+    let top = pts.iter().chain(measured).map(|p| p.1).fold(0.0, f64::max);
     let chart = if top > 0.7 {
         XyChart {
             hline: Some((1.0, "energy limit ρ = 1".into())),

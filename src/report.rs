@@ -495,7 +495,8 @@ fn plots(doc: &mut Doc, set: &DataSet, fits: &[FitResult], ts_i: usize, rec: usi
         doc.figure(&png, Some(&svg), &chart.title);
         doc.p(&residual_takeaway(&chart));
     }
-    let (chart, apts) = plot::albedo_chart(&ts.label(), &ts.model_for(0));
+    let measured = plot::measured_albedo(ds, 0);
+    let (chart, apts) = plot::albedo_chart(&ts.label(), &ts.model_for(0), &measured);
     let (png, svg) = save_chart(&chart, root, &format!("{dir}/albedo"))?;
     doc.figure(
         &png,
@@ -510,10 +511,11 @@ fn plots(doc: &mut Doc, set: &DataSet, fits: &[FitResult], ts_i: usize, rec: usi
     } else if let (Some(a), Some(b)) = (apts.first(), apts.last()) {
         doc.p(&format!(
             "Takeaway: the fit reflects {} of the light at normal incidence and {} at θi = {}°, \
-             within the energy limit.",
+             within the energy limit. {}",
             crate::model::significant(a.1, 3),
             crate::model::significant(b.1, 3),
-            b.0
+            b.0,
+            albedo_agreement(&apts, &measured)
         ));
     }
 
@@ -643,7 +645,7 @@ fn studies(
         &rows,
     );
     let (png, svg) = save_chart(&chart, root, &format!("{dir}/speed-accuracy"))?;
-    doc.figure(&png, Some(&svg), "Cost above the best found against fit time (measured in this run): left, the solvers on Torrance–Sparrow (D3); right, each model with its best solver; ◆ and the step line mark the Pareto front (no point is both faster and lower)");
+    doc.figure(&png, Some(&svg), "Cost above the best found against fit time (measured in this run): left, the solvers on Torrance–Sparrow (D3); right, each model with its best solver; ringed points and the step line mark the Pareto front (no point is both faster and lower)");
     {
         // Deterministic (no times): which solvers reach the lowest cost, and the best model.
         let best = rows.iter().map(|r| r.cost).fold(f64::INFINITY, f64::min);
@@ -696,30 +698,61 @@ fn studies(
     );
     let (png, svg) = save_chart(&chart, root, &format!("{dir}/stability"))?;
     doc.figure(&png, Some(&svg), "Stability as a heatmap: configurations (noise × sampling) against methods, each cell the share of seeded random starts reaching the global minimum, failures classified");
-    {
-        let all_reached = |m: crate::fit::lsq::Method, g: bool| {
-            srows
-                .iter()
-                .filter(|r| r.method == m && r.global == g && r.hits == r.starts)
-                .count()
-        };
-        let configs = srows.len() / study::STABILITY_COLUMNS.len().max(1);
-        doc.p(&format!(
-            "Takeaway: every start reached the minimum in {} of {configs} configurations with \
-             Levenberg–Marquardt and the global initialisation, {} with Gauss–Newton and {} with \
-             Nelder–Mead; from local starts alone, Levenberg–Marquardt in {}.",
-            all_reached(crate::fit::lsq::Method::Lm, true),
-            all_reached(crate::fit::lsq::Method::GaussNewton, true),
-            all_reached(crate::fit::lsq::Method::NelderMead, true),
-            all_reached(crate::fit::lsq::Method::Lm, false)
-        ));
-    }
+    doc.p(&stability_takeaway(&srows));
     let (md, csv) = study::stability_tables(&srows);
+    doc.p(study::STABILITY_CELLS);
     write_bytes_atomic(&root.join(dir).join("stability.csv"), csv.as_bytes())?;
     doc.md.push_str(&md);
     doc.md.push('\n');
     doc.html.push_str(&md_table_to_html(&md));
     Ok(())
+}
+
+/// How the fit's albedo compares with the estimate from the samples, in one sentence.
+fn albedo_agreement(fit: &[(f64, f64)], measured: &[(f64, f64)]) -> String {
+    let worst = measured
+        .iter()
+        .filter_map(|(t, m)| {
+            let f = fit.iter().find(|p| p.0 == *t)?.1;
+            Some((*t, (f - m) / m))
+        })
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
+    match worst {
+        None => "The samples do not cover and resolve the outgoing hemisphere at any θi, so \
+                 the albedo cannot be estimated from them."
+            .into(),
+        Some((t, d)) => format!(
+            "The estimate from the samples ({} incidence angles) differs from the fit by at \
+             most {} % (θi = {t}°).",
+            measured.len(),
+            crate::model::significant(100.0 * d.abs(), 2)
+        ),
+    }
+}
+
+/// The takeaway under the stability heatmap: per method, in how many configurations every
+/// start reached the minimum, with the global initialisation and from the random start alone.
+fn stability_takeaway(rows: &[study::StabilityRow]) -> String {
+    use crate::fit::lsq::Method;
+    let configs = rows.len() / (2 * Method::ALL.len());
+    let all_reached = |m: Method, g: bool| {
+        rows.iter()
+            .filter(|r| r.method == m && r.global == g && r.hits == r.starts)
+            .count()
+    };
+    let list = |g: bool| {
+        Method::ALL
+            .iter()
+            .map(|&m| format!("{} {}", m.name(), all_reached(m, g)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    format!(
+        "Takeaway: configurations (of {configs}) in which every start reached the minimum, \
+         with the global initialisation: {}; from the random start alone: {}.",
+        list(true),
+        list(false)
+    )
 }
 
 /// index.html, report.md, results.json and timings.json.

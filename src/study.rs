@@ -42,7 +42,7 @@ pub fn parse_truth(ds: &Dataset) -> Option<Model> {
 /// One row of the speed–accuracy table.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SpeedRow {
-    /// Method name (lm, gn, nm, or scipy).
+    /// Method name ([`Method::name`], or scipy).
     pub method: String,
     /// Model label.
     pub model: String,
@@ -54,6 +54,9 @@ pub struct SpeedRow {
     pub cost: f64,
     /// Largest relative parameter error against the truth (same model only).
     pub param_error: Option<f64>,
+    /// Why the solver stopped (its own words), so a stall or a step out of the bounds shows.
+    #[serde(default)]
+    pub termination: String,
 }
 
 /// The models of the speed–accuracy study.
@@ -68,7 +71,7 @@ pub fn study_models() -> Vec<(ModelKind, Distribution)> {
 /// Run every method × model on channel 0 of `ds` (median time of `repeats` runs).
 pub fn speed_accuracy(ds: &Dataset, truth: Option<&Model>, repeats: usize) -> Vec<SpeedRow> {
     let mut rows = Vec::new();
-    for method in [Method::Lm, Method::GaussNewton, Method::NelderMead] {
+    for method in Method::ALL {
         for (kind, dist) in study_models() {
             let mut o = FitOptions::new(kind);
             o.dist = dist;
@@ -103,6 +106,7 @@ pub fn speed_accuracy(ds: &Dataset, truth: Option<&Model>, repeats: usize) -> Ve
                 work: (f.evaluations * f.samples_used) as f64,
                 cost: f.cost,
                 param_error,
+                termination: f.termination.clone(),
             });
         }
     }
@@ -204,6 +208,23 @@ pub fn speed_chart(title: &str, rows: &[SpeedRow]) -> SpeedChart {
     }
 }
 
+/// The colour of a method in the studies' charts (Okabe & Ito's colour-blind-safe palette,
+/// its yellow darkened to read on white; grey for a peer outside [`Method::ALL`]).
+pub fn method_colour(name: &str) -> plotters::style::RGBColor {
+    use plotters::style::RGBColor;
+    match name {
+        "lm" => RGBColor(0, 114, 178),
+        "gn" => RGBColor(213, 94, 0),
+        "nm" => RGBColor(0, 158, 115),
+        "argmin-lbfgs" => RGBColor(204, 121, 167),
+        "argmin-trust-region" => RGBColor(230, 159, 0),
+        "argmin-gauss-newton" => RGBColor(86, 180, 233),
+        "argmin-nm" => RGBColor(0, 0, 0),
+        "argmin-pso" => RGBColor(140, 110, 30),
+        _ => RGBColor(120, 120, 120),
+    }
+}
+
 impl crate::plot::Chart for SpeedChart {
     fn size(&self) -> (u32, u32) {
         (1200, 500)
@@ -219,12 +240,7 @@ impl crate::plot::Chart for SpeedChart {
             .titled(&self.title, ("sans-serif", 18))
             .map_err(crate::plot::err)?;
         let areas = root.split_evenly((1, self.panels.len().max(1)));
-        let colour = |m: &str| match m {
-            "lm" => RGBColor(0, 90, 181),
-            "gn" => RGBColor(220, 50, 32),
-            "nm" => RGBColor(0, 140, 70),
-            _ => RGBColor(90, 90, 90),
-        };
+        let colour = method_colour;
         let models: Vec<&str> = {
             let mut v: Vec<&str> = self
                 .panels
@@ -281,37 +297,72 @@ impl crate::plot::Chart for SpeedChart {
             chart
                 .draw_series(LineSeries::new(steps, BLACK.mix(0.6).stroke_width(1)))
                 .map_err(crate::plot::err)?;
+            // Markers first, their boxes kept free of labels; then the labels.
             let mut placed = Vec::new();
             for p in pts {
                 let c = colour(&p.method);
                 let at = (p.seconds, p.excess);
                 let style = c.filled();
-                match models.iter().position(|m| *m == p.model).unwrap_or(0) % 4 {
+                let hollow = c.stroke_width(2);
+                match models.iter().position(|m| *m == p.model).unwrap_or(0) % 6 {
                     0 => chart.draw_series(std::iter::once(Circle::new(at, 5, style))),
                     1 => chart.draw_series(std::iter::once(TriangleMarker::new(at, 7, style))),
-                    2 => chart.draw_series(std::iter::once(Cross::new(at, 5, c.stroke_width(2)))),
-                    _ => chart.draw_series(std::iter::once(
+                    2 => chart.draw_series(std::iter::once(Cross::new(at, 5, hollow))),
+                    3 => chart.draw_series(std::iter::once(
                         EmptyElement::at(at) + Rectangle::new([(-4, -4), (4, 4)], style),
+                    )),
+                    4 => chart.draw_series(std::iter::once(Circle::new(at, 5, hollow))),
+                    _ => chart.draw_series(std::iter::once(
+                        EmptyElement::at(at) + Rectangle::new([(-4, -4), (4, 4)], hollow),
                     )),
                 }
                 .map_err(crate::plot::err)?;
-                let label = format!(
-                    "{} · {}{}",
-                    p.method,
-                    p.model,
-                    if p.front { " ◆" } else { "" }
-                );
+                if p.front {
+                    chart
+                        .draw_series(std::iter::once(Circle::new(at, 10, BLACK.stroke_width(1))))
+                        .map_err(crate::plot::err)?;
+                }
                 let (px, py) = chart.backend_coord(&at);
-                let right = area.get_base_pixel().0 + area.dim_in_pixel().0 as i32 - 8;
+                placed.push((px - 10, py - 10, px + 10, py + 10));
+            }
+            let (xr, yr) = chart.plotting_area().get_pixel_range();
+            let bounds = (xr.start, yr.start, xr.end, yr.end);
+            let base = area.get_base_pixel();
+            // The left panel holds one model: name the method only.
+            let one_model = pts.iter().all(|p| p.model == pts[0].model);
+            for p in pts {
+                let c = colour(&p.method);
+                let label = if one_model {
+                    p.method.clone()
+                } else {
+                    format!("{} ({})", p.model, p.method)
+                };
+                let (px, py) = chart.backend_coord(&(p.seconds, p.excess));
+                let h = 15;
                 let (lx, ly) = crate::plot::place_label(
                     &mut placed,
                     (px, py),
-                    (7 * label.chars().count() as i32, 15),
-                    right,
+                    (7 * label.chars().count() as i32, h),
+                    bounds,
                 );
+                if crate::plot::needs_leader(py, ly, h) {
+                    let end = if lx > px {
+                        lx
+                    } else {
+                        lx + 7 * label.chars().count() as i32
+                    };
+                    area.draw(&PathElement::new(
+                        vec![
+                            (px - base.0, py - base.1),
+                            (end - base.0, ly + h / 2 - base.1),
+                        ],
+                        c.mix(0.5).stroke_width(1),
+                    ))
+                    .map_err(crate::plot::err)?;
+                }
                 area.draw(&Text::new(
                     label,
-                    (lx - area.get_base_pixel().0, ly - area.get_base_pixel().1),
+                    (lx - base.0, ly - base.1),
                     ("sans-serif", 12).into_font().color(&c),
                 ))
                 .map_err(crate::plot::err)?;
@@ -324,22 +375,23 @@ impl crate::plot::Chart for SpeedChart {
 /// Markdown and CSV tables of the speed–accuracy study; times only when `with_times`.
 pub fn speed_tables(rows: &[SpeedRow], with_times: bool) -> (String, String) {
     let mut md = String::new();
-    let mut csv = String::new();
     let _ = writeln!(
         md,
-        "| method | model |{} work (evaluations × samples) | cost | max rel. parameter error |",
+        "| method | model |{} work (evaluations × samples) | cost | max rel. parameter error | stopped because |",
         if with_times { " time (s) |" } else { "" }
     );
     let _ = writeln!(
         md,
-        "|---|---|{}---:|---:|---:|",
+        "|---|---|{}---:|---:|---:|---|",
         if with_times { "---:|" } else { "" }
     );
-    let _ = writeln!(
-        csv,
-        "method,model,{}work,cost,param_error",
-        if with_times { "seconds," } else { "" }
-    );
+    let mut csv = csv::Writer::from_writer(Vec::new());
+    let mut head = vec!["method", "model"];
+    if with_times {
+        head.push("seconds");
+    }
+    head.extend(["work", "cost", "param_error", "termination"]);
+    let _ = csv.write_record(&head);
     for r in rows {
         let pe = r.param_error.map_or("".to_string(), |e| format!("{e:.3e}"));
         let t = if with_times {
@@ -349,20 +401,30 @@ pub fn speed_tables(rows: &[SpeedRow], with_times: bool) -> (String, String) {
         };
         let _ = writeln!(
             md,
-            "| {} | {} |{t} {:.0} | {:.6e} | {} |",
-            r.method, r.model, r.work, r.cost, pe
+            "| {} | {} |{t} {:.0} | {:.6e} | {} | {} |",
+            r.method,
+            r.model,
+            r.work,
+            r.cost,
+            pe,
+            r.termination.replace('|', "/")
         );
-        let t = if with_times {
-            format!("{},", r.seconds)
-        } else {
-            String::new()
-        };
-        let _ = writeln!(
-            csv,
-            "{},{},{t}{},{},{}",
-            r.method, r.model, r.work, r.cost, pe
-        );
+        let mut rec = vec![r.method.clone(), r.model.clone()];
+        if with_times {
+            rec.push(r.seconds.to_string());
+        }
+        rec.extend([
+            r.work.to_string(),
+            r.cost.to_string(),
+            pe,
+            r.termination.clone(),
+        ]);
+        let _ = csv.write_record(&rec);
     }
+    let csv = csv
+        .into_inner()
+        .map(|b| String::from_utf8_lossy(&b).into_owned())
+        .unwrap_or_default();
     (md, csv)
 }
 
@@ -507,7 +569,7 @@ pub fn stability_with_progress(
                 })
                 .collect();
             let mut runs: Vec<Run> = Vec::new();
-            for method in [Method::Lm, Method::GaussNewton, Method::NelderMead] {
+            for method in Method::ALL {
                 for global in [true, false] {
                     let ends = start_points
                         .iter()
@@ -521,7 +583,9 @@ pub fn stability_with_progress(
                             match fit::fit(&ds, &o) {
                                 Ok(f) if f[0].cost.is_finite() => {
                                     let f = &f[0];
-                                    let how = if !f.at_bound.is_empty() {
+                                    let how = if !f.at_bound.is_empty()
+                                        || f.termination.contains("left the bounds")
+                                    {
                                         Outcome::AtBound
                                     } else if f.termination.contains("limit") {
                                         Outcome::Stalled
@@ -574,66 +638,80 @@ pub fn stability_with_progress(
 }
 
 /// The stability heatmap: one row per configuration (noise × sampling pattern), one column
-/// per method × initialisation; each cell coloured by the share of starts reaching the
-/// global minimum and labelled `hits/starts` with the failures by kind (b wrong basin,
-/// s stalled, ⊥ at a bound, ∞ non-finite).
+/// per method ([`Method::ALL`]), in two panels: with the global initialisation, and from the
+/// random start alone. Each cell is coloured by the share of starts reaching the global
+/// minimum and labelled `hits/starts` with the failures by kind (b wrong basin, s stalled,
+/// ⊥ at or out of a bound, ∞ non-finite).
 #[derive(Clone, Debug)]
 pub struct StabilityHeatmap {
     /// Title.
     pub title: String,
     /// Row labels, top to bottom.
     pub rows: Vec<String>,
-    /// Column labels, left to right.
-    pub cols: Vec<String>,
-    /// Cells, row-major: (hits, starts, label).
-    pub cells: Vec<(usize, usize, String)>,
+    /// The methods of the columns, left to right.
+    pub cols: Vec<Method>,
+    /// Panels, top to bottom: (title, global initialisation on, cells row-major).
+    pub panels: Vec<(String, bool, Vec<HeatCell>)>,
 }
 
-/// The columns of the stability study: each method with and without the global
-/// initialisation.
-pub const STABILITY_COLUMNS: [(Method, bool); 6] = [
-    (Method::Lm, true),
-    (Method::Lm, false),
-    (Method::GaussNewton, true),
-    (Method::GaussNewton, false),
-    (Method::NelderMead, true),
-    (Method::NelderMead, false),
-];
+/// One heatmap cell: hits, starts and its label.
+pub type HeatCell = (usize, usize, String);
 
-/// [`StabilityHeatmap`] of the study's rows.
-pub fn stability_chart(title: &str, rows: &[StabilityRow]) -> StabilityHeatmap {
+/// The configurations of the study's rows, in their first-seen order.
+fn configurations(rows: &[StabilityRow]) -> Vec<(f64, Pattern)> {
     let mut configs: Vec<(f64, Pattern)> = Vec::new();
     for r in rows {
         if !configs.contains(&(r.noise, r.pattern)) {
             configs.push((r.noise, r.pattern));
         }
     }
-    let mut cells = Vec::new();
-    for (noise, pattern) in &configs {
-        for (m, g) in STABILITY_COLUMNS {
-            let r = rows.iter().find(|r| {
-                r.noise == *noise && r.pattern == *pattern && r.method == m && r.global == g
-            });
-            cells.push(r.map_or((0, 0, "–".into()), |r| {
-                let mut why = Vec::new();
-                for (n, mark) in [
-                    (r.wrong_basin, "b"),
-                    (r.stalled, "s"),
-                    (r.at_bound, "⊥"),
-                    (r.failures, "∞"),
-                ] {
-                    if n > 0 {
-                        why.push(format!("{n}{mark}"));
-                    }
-                }
-                (
-                    r.hits,
-                    r.starts,
-                    format!("{}/{} {}", r.hits, r.starts, why.join(" ")),
-                )
-            }));
+    configs
+}
+
+/// The row of one configuration, method and initialisation, if the study ran it.
+fn stability_row(
+    rows: &[StabilityRow],
+    (noise, pattern): (f64, Pattern),
+    method: Method,
+    global: bool,
+) -> Option<&StabilityRow> {
+    rows.iter().find(|r| {
+        r.noise == noise && r.pattern == pattern && r.method == method && r.global == global
+    })
+}
+
+/// [`StabilityHeatmap`] of the study's rows.
+pub fn stability_chart(title: &str, rows: &[StabilityRow]) -> StabilityHeatmap {
+    let configs = configurations(rows);
+    let panel = |global: bool| {
+        let mut cells = Vec::new();
+        for &config in &configs {
+            for m in Method::ALL {
+                cells.push(stability_row(rows, config, m, global).map_or(
+                    (0, 0, "–".into()),
+                    |r| {
+                        let mut why = Vec::new();
+                        for (n, mark) in [
+                            (r.wrong_basin, "b"),
+                            (r.stalled, "s"),
+                            (r.at_bound, "⊥"),
+                            (r.failures, "∞"),
+                        ] {
+                            if n > 0 {
+                                why.push(format!("{n}{mark}"));
+                            }
+                        }
+                        (
+                            r.hits,
+                            r.starts,
+                            format!("{}/{} {}", r.hits, r.starts, why.join(" ")),
+                        )
+                    },
+                ));
+            }
         }
-    }
+        cells
+    };
     StabilityHeatmap {
         title: title.to_string(),
         rows: configs
@@ -641,17 +719,30 @@ pub fn stability_chart(title: &str, rows: &[StabilityRow]) -> StabilityHeatmap {
             .enumerate()
             .map(|(k, (n, p))| format!("{}. {:.0} % noise, {}", k + 1, n * 100.0, p.name()))
             .collect(),
-        cols: STABILITY_COLUMNS
-            .iter()
-            .map(|(m, g)| format!("{} {}", m.name(), if *g { "+ init" } else { "local" }))
-            .collect(),
-        cells,
+        cols: Method::ALL.to_vec(),
+        panels: vec![
+            (
+                "with the global initialisation (grid, then the local method)".into(),
+                true,
+                panel(true),
+            ),
+            ("from the random start alone".into(), false, panel(false)),
+        ],
     }
 }
 
+/// Geometry of the heatmap: left margin, top of the first panel, cell width and height, and
+/// the height of a panel's heading.
+const HEAT: (i32, i32, i32, i32, i32) = (240, 60, 118, 26, 74);
+
 impl crate::plot::Chart for StabilityHeatmap {
     fn size(&self) -> (u32, u32) {
-        (900, 110 + 30 * self.rows.len() as u32)
+        let (left, top, cw, ch, head) = HEAT;
+        let panel = head + ch * self.rows.len() as i32;
+        (
+            (left + cw * self.cols.len() as i32 + 12) as u32,
+            (top + panel * self.panels.len() as i32 + 8) as u32,
+        )
     }
 
     fn draw<DB: plotters::prelude::DrawingBackend>(
@@ -660,68 +751,80 @@ impl crate::plot::Chart for StabilityHeatmap {
     ) -> anyhow::Result<()> {
         use plotters::prelude::*;
         root.fill(&WHITE).map_err(crate::plot::err)?;
-        let (left, top, cw, ch) = (230i32, 70i32, 110i32, 30i32);
+        let (left, top, cw, ch, head) = HEAT;
         let font = |size: f64| ("sans-serif", size).into_font();
-        root.draw(&Text::new(self.title.clone(), (12, 10), font(18.0)))
-            .map_err(crate::plot::err)?;
-        root.draw(&Text::new(
-            "share of starts reaching the global minimum (cell: hits/starts; failures: b wrong basin, s stalled, ⊥ at a bound, ∞ non-finite)",
+        let text = |s: &str, at: (i32, i32), size: f64| {
+            root.draw(&Text::new(s.to_string(), at, font(size)))
+                .map_err(crate::plot::err)
+        };
+        text(&self.title, (12, 10), 18.0)?;
+        text(
+            "cell: starts reaching the global minimum / starts; failures: b wrong basin, s stalled, ⊥ at or out of a bound, ∞ non-finite",
             (12, 36),
-            font(12.0),
-        ))
-        .map_err(crate::plot::err)?;
-        for (c, label) in self.cols.iter().enumerate() {
-            root.draw(&Text::new(
-                label.clone(),
-                (left + c as i32 * cw + 6, top - 16),
-                font(13.0),
-            ))
-            .map_err(crate::plot::err)?;
-        }
-        for (r, label) in self.rows.iter().enumerate() {
-            let y = top + r as i32 * ch;
-            root.draw(&Text::new(label.clone(), (12, y + 8), font(13.0)))
-                .map_err(crate::plot::err)?;
-            for c in 0..self.cols.len() {
-                let (hits, starts, text) = &self.cells[r * self.cols.len() + c];
-                let share = if *starts > 0 {
-                    *hits as f64 / *starts as f64
-                } else {
-                    0.0
+            12.0,
+        )?;
+        for (p, (title, _, cells)) in self.panels.iter().enumerate() {
+            let y0 = top + p as i32 * (head + ch * self.rows.len() as i32);
+            text(title, (12, y0 + 14), 15.0)?;
+            // Two-line column heads: whose solver, then which.
+            for (c, m) in self.cols.iter().enumerate() {
+                let (who, what) = match m.name().strip_prefix("argmin-") {
+                    Some(rest) => ("argmin", rest),
+                    None => ("brdfit", m.name()),
                 };
-                // Red (none) through yellow to green (all).
-                let colour = RGBColor(
-                    (255.0 * (1.0 - share).clamp(0.0, 1.0).sqrt()) as u8,
-                    (200.0 * share.sqrt()) as u8 + 40,
-                    90,
-                );
-                let x = left + c as i32 * cw;
-                root.draw(&Rectangle::new(
-                    [(x, y), (x + cw - 2, y + ch - 2)],
-                    colour.mix(0.55).filled(),
-                ))
-                .map_err(crate::plot::err)?;
-                root.draw(&Text::new(text.clone(), (x + 6, y + 8), font(13.0)))
+                let x = left + c as i32 * cw + 6;
+                text(who, (x, y0 + 38), 12.0)?;
+                text(what, (x, y0 + 53), 13.0)?;
+            }
+            for (r, label) in self.rows.iter().enumerate() {
+                let y = y0 + head + r as i32 * ch;
+                text(label, (12, y + 6), 13.0)?;
+                for c in 0..self.cols.len() {
+                    let (hits, starts, label) = &cells[r * self.cols.len() + c];
+                    let share = if *starts > 0 {
+                        *hits as f64 / *starts as f64
+                    } else {
+                        0.0
+                    };
+                    // Red (none) through yellow to green (all).
+                    let colour = RGBColor(
+                        (255.0 * (1.0 - share).clamp(0.0, 1.0).sqrt()) as u8,
+                        (200.0 * share.sqrt()) as u8 + 40,
+                        90,
+                    );
+                    let x = left + c as i32 * cw;
+                    root.draw(&Rectangle::new(
+                        [(x, y), (x + cw - 2, y + ch - 2)],
+                        colour.mix(0.55).filled(),
+                    ))
                     .map_err(crate::plot::err)?;
+                    text(label, (x + 5, y + 6), 13.0)?;
+                }
             }
         }
         Ok(())
     }
 }
 
-/// Markdown and CSV tables of the stability study.
+/// What a cell of the Markdown stability table holds.
+pub const STABILITY_CELLS: &str = "Each cell: starts reaching the global minimum with the global initialisation · from the random start alone.";
+
+/// Markdown and CSV tables of the stability study: one Markdown row per configuration, one
+/// column per method, each cell the hits with the global initialisation · from the random
+/// start alone; one CSV row per configuration, method and initialisation.
 pub fn stability_tables(rows: &[StabilityRow]) -> (String, String) {
-    let mut md = String::from(
-        "| # | noise | sampling | lm + init | lm local | gn + init | gn local | nm + init | nm local |\n|---:|---:|---|---:|---:|---:|---:|---:|---:|\n",
-    );
+    let mut md = String::from("| # | noise | sampling |");
+    for m in Method::ALL {
+        let _ = write!(md, " {} |", m.name());
+    }
+    md.push_str("\n|---:|---:|---|");
+    md.push_str(&"---:|".repeat(Method::ALL.len()));
+    md.push('\n');
     let mut csv = String::from(
         "config,noise,pattern,method,global_init,hits,starts,failures,wrong_basin,stalled,at_bound\n",
     );
-    let mut configs: Vec<(f64, Pattern)> = Vec::new();
+    let configs = configurations(rows);
     for r in rows {
-        if !configs.contains(&(r.noise, r.pattern)) {
-            configs.push((r.noise, r.pattern));
-        }
         let k = configs
             .iter()
             .position(|c| *c == (r.noise, r.pattern))
@@ -742,34 +845,22 @@ pub fn stability_tables(rows: &[StabilityRow]) -> (String, String) {
             r.at_bound
         );
     }
-    for (k, (noise, pattern)) in configs.iter().enumerate() {
-        let cell = |m: Method, g: bool| {
-            rows.iter()
-                .find(|r| {
-                    r.noise == *noise && r.pattern == *pattern && r.method == m && r.global == g
-                })
-                .map_or("–".into(), |r| {
-                    let f = if r.failures > 0 {
-                        format!(" ({} failed)", r.failures)
-                    } else {
-                        String::new()
-                    };
-                    format!("{}/{}{f}", r.hits, r.starts)
-                })
+    for (k, &config) in configs.iter().enumerate() {
+        let cell = |g: bool, m: Method| {
+            stability_row(rows, config, m, g)
+                .map_or("–".into(), |r| format!("{}/{}", r.hits, r.starts))
         };
-        let _ = writeln!(
+        let _ = write!(
             md,
-            "| {} | {:.0} % | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {:.0} % | {} |",
             k + 1,
-            noise * 100.0,
-            pattern.name(),
-            cell(Method::Lm, true),
-            cell(Method::Lm, false),
-            cell(Method::GaussNewton, true),
-            cell(Method::GaussNewton, false),
-            cell(Method::NelderMead, true),
-            cell(Method::NelderMead, false)
+            config.0 * 100.0,
+            config.1.name()
         );
+        for m in Method::ALL {
+            let _ = write!(md, " {} · {} |", cell(true, m), cell(false, m));
+        }
+        md.push('\n');
     }
     (md, csv)
 }
@@ -809,6 +900,7 @@ pub fn scipy_peer(ds: &Dataset, python: &str, script: &std::path::Path) -> Optio
         work: v["nfev"].as_f64()? * v["samples"].as_f64()?,
         cost: v["cost"].as_f64()?,
         param_error: None,
+        termination: v["message"].as_str().unwrap_or("").to_string(),
     })
 }
 

@@ -481,7 +481,10 @@ fn fit_command_end_to_end() {
     );
     expect_usage_error(
         &["fit", "data/blinn-mgo.csv", "--method", "bfgs"],
-        &["invalid value 'bfgs'", "possible values: lm, gn, nm"],
+        &[
+            "invalid value 'bfgs'",
+            "possible values: lm, gn, nm, argmin-lbfgs",
+        ],
     );
 }
 

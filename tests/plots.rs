@@ -89,12 +89,12 @@ fn albedo_flags_energy_creation() {
         assert!(a > 0.333 && a < 1.0, "MgO albedo at {t}° = {a}");
     }
     let hot = Model::new(ModelKind::Phong, Distribution::D3, &[5.0, 3.0, 0.5]).unwrap();
-    let (chart, pts) = plot::albedo_chart("hot", &hot);
+    let (chart, pts) = plot::albedo_chart("hot", &hot, &[]);
     assert!(pts.iter().any(|p| p.1 > 1.0));
     // Near or above 1 the energy limit is drawn; for MgO (0.35–0.43) the axis follows the
     // curve alone, so it does not lie on the bottom edge of an axis running to 1.
     assert!(chart.hline.is_some());
-    let (chart, pts) = plot::albedo_chart("mgo", &mgo);
+    let (chart, pts) = plot::albedo_chart("mgo", &mgo, &[]);
     assert!(chart.hline.is_none() && chart.title.contains("far above"));
     assert!(pts.iter().all(|p| p.1 < 0.5));
 }
@@ -255,4 +255,45 @@ fn binned_quantiles_by_hand() {
         let s = 100.0 * bin as f64;
         assert_eq!([b[1], b[2], b[3]], [1.0 + s, 5.0 + s, 9.0 + s], "{b:?}");
     }
+}
+
+/// The albedo estimated from the samples: exact for a constant BRDF (ρ = pd), close to the
+/// model's integral for Blinn's MgO file (10,000 samples with 1 % noise), and absent where the
+/// samples do not cover the hemisphere.
+#[test]
+fn measured_albedo_from_the_samples() {
+    use brdfit::simulate::{Grid, simulate};
+    let lambert = Model::new(ModelKind::Lambert, Distribution::D3, &[0.5]).unwrap();
+    let ds = simulate(&lambert, &Grid::Hemisphere(40_000).directions(2), 0.0, 2);
+    let est = plot::measured_albedo(&ds, 0);
+    assert!(est.len() >= 12, "{est:?}");
+    for (t, rho) in &est {
+        assert!((rho - 0.5).abs() < 1e-12, "θi {t}: {rho}");
+    }
+    let ds = brdfit::data::load(
+        std::path::Path::new("data/blinn-mgo.csv"),
+        &brdfit::data::LoadOptions::default(),
+    )
+    .unwrap();
+    let est = plot::measured_albedo(&ds, 0);
+    assert!(est.len() >= 10, "{est:?}");
+    let mgo = Model::blinn_mgo();
+    for (t, rho) in est.iter().filter(|(t, _)| *t <= 60.0) {
+        let truth = plot::albedo(&mgo, *t);
+        assert!(
+            (rho - truth).abs() < 0.05 * truth,
+            "θi {t}: {rho} against {truth}"
+        );
+    }
+    // MERL aluminium's 15° azimuth grid catches its highlight in one sample per cell, which
+    // would stand in for far more than the peak's area (the estimate came out at 2.7): none.
+    let merl = brdfit::data::load(
+        std::path::Path::new("data/merl-aluminium.csv"),
+        &brdfit::data::LoadOptions::default(),
+    )
+    .unwrap();
+    assert!(plot::measured_albedo(&merl, 0).is_empty());
+    // The plane of incidence alone covers 2 of 8 azimuth sectors: no estimate.
+    let plane = simulate(&mgo, &Grid::Plane(vec![30.0, 60.0]).directions(1), 0.0, 1);
+    assert!(plot::measured_albedo(&plane, 0).is_empty());
 }

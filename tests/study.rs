@@ -1,6 +1,7 @@
 //! Studies: the tables and charts hold what the runs produced.
 
 use brdfit::data::{self, LoadOptions};
+use brdfit::fit::lsq::Method;
 use brdfit::model::Model;
 use brdfit::study;
 
@@ -14,9 +15,9 @@ fn speed_accuracy_covers_every_method_and_model() {
     let truth = study::parse_truth(&ds).expect("the synthetic file carries its truth");
     assert_eq!(truth, Model::blinn_mgo());
     let rows = study::speed_accuracy(&ds, Some(&truth), 1);
-    // Three methods × every model with a lobe.
+    // Every method × every model with a lobe.
     let models = study::study_models().len();
-    assert_eq!(rows.len(), 3 * models);
+    assert_eq!(rows.len(), Method::ALL.len() * models);
     // The true model family fits best, and its parameters are recovered (1 % noise).
     let best = rows
         .iter()
@@ -50,6 +51,7 @@ fn speed_accuracy_covers_every_method_and_model() {
         work: 0.0,
         cost,
         param_error: None,
+        termination: String::new(),
     };
     let known = vec![
         row("lm", "torrance-sparrow (d3)", 0.01, 1.0),
@@ -92,15 +94,16 @@ fn speed_accuracy_covers_every_method_and_model() {
     let dir = tempfile::tempdir().unwrap();
     brdfit::plot::save(&chart, &dir.path().join("speed")).unwrap();
     let (md, csv) = study::speed_tables(&rows, false);
-    assert_eq!(md.lines().count(), 2 + 3 * models);
-    assert_eq!(csv.lines().count(), 1 + 3 * models);
+    assert_eq!(md.lines().count(), 2 + Method::ALL.len() * models);
+    assert_eq!(csv.lines().count(), 1 + Method::ALL.len() * models);
     assert!(!csv.contains("seconds"));
 }
 
 #[test]
 fn stability_counts_starts_per_configuration() {
     let rows = study::stability(&Model::blinn_mgo(), 2, 1500, 3);
-    assert_eq!(rows.len(), 16 * 6);
+    let methods = Method::ALL.len();
+    assert_eq!(rows.len(), 16 * 2 * methods);
     // The rows are serde values: written and read back equal.
     let text = serde_json::to_string(&rows).unwrap();
     let back: Vec<study::StabilityRow> = serde_json::from_str(&text).unwrap();
@@ -112,40 +115,48 @@ fn stability_counts_starts_per_configuration() {
         .find(|r| {
             r.noise == 0.01
                 && r.pattern == study::Pattern::Hemisphere
-                && r.method == brdfit::fit::lsq::Method::Lm
+                && r.method == Method::Lm
                 && r.global
         })
         .unwrap();
     assert_eq!(r.hits, 2);
     let (md, csv) = study::stability_tables(&rows);
     assert_eq!(md.lines().count(), 18);
-    assert_eq!(csv.lines().count(), 1 + 16 * 6);
+    assert_eq!(csv.lines().count(), 1 + 16 * 2 * methods);
     // Every start ends one way: reached, wrong basin, stalled, at a bound or non-finite.
     assert!(
         rows.iter()
             .all(|r| r.hits + r.wrong_basin + r.stalled + r.at_bound + r.failures == r.starts)
     );
-    // Each heatmap cell is the count the CSV gives for its configuration and column.
+    // Each heatmap cell is the count the CSV gives for its configuration and column, in the
+    // panel of its initialisation; and the Markdown cell gives both.
     let chart = study::stability_chart("t", &rows);
-    assert_eq!((chart.rows.len(), chart.cols.len()), (16, 6));
+    assert_eq!((chart.rows.len(), chart.cols.len()), (16, methods));
+    assert_eq!(chart.panels.len(), 2);
     let mut n = 0;
     for line in csv.lines().skip(1) {
         let f: Vec<&str> = line.split(',').collect();
         let config: usize = f[0].parse().unwrap();
-        let col = study::STABILITY_COLUMNS
+        let col = chart.cols.iter().position(|m| m.name() == f[3]).unwrap();
+        let panel = chart
+            .panels
             .iter()
-            .position(|(m, g)| m.name() == f[3] && g.to_string() == f[4])
+            .find(|p| p.1.to_string() == f[4])
             .unwrap();
-        let cell = &chart.cells[(config - 1) * 6 + col];
+        let cell = &panel.2[(config - 1) * methods + col];
         assert_eq!(
             (cell.0.to_string(), cell.1.to_string()),
             (f[5].into(), f[6].into()),
             "{line}"
         );
         assert!(cell.2.starts_with(&format!("{}/{}", f[5], f[6])));
+        let md_row: Vec<&str> = md.lines().nth(1 + config).unwrap().split('|').collect();
+        let both: Vec<&str> = md_row[4 + col].trim().split(" · ").collect();
+        let k = if f[4] == "true" { 0 } else { 1 };
+        assert_eq!(both[k], format!("{}/{}", f[5], f[6]), "{line}");
         n += 1;
     }
-    assert_eq!(n, 96);
+    assert_eq!(n, 16 * 2 * methods);
     let dir = tempfile::tempdir().unwrap();
     brdfit::plot::save(&chart, &dir.path().join("h")).unwrap();
 }

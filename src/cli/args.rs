@@ -53,7 +53,9 @@ pub(crate) struct FitArgs {
     /// (Gaussian), d3 (Trowbridge–Reitz).
     #[arg(long, value_enum, default_value = "d3")]
     pub(crate) distribution: Distribution,
-    /// Local method: lm (Levenberg–Marquardt), gn (Gauss–Newton with line search), nm (Nelder–Mead).
+    /// Local method: brdfit's lm (Levenberg–Marquardt), gn (Gauss–Newton with line search) or
+    /// nm (Nelder–Mead), or one of argmin's solvers run on the same problem, for comparison
+    /// (bounds are brdfit's: argmin's own solvers are unconstrained).
     #[arg(long, value_enum, default_value = "lm")]
     pub(crate) method: brdfit::fit::lsq::Method,
     /// Loss: log (ln(1 + cosθi f) differences) or linear (f differences).

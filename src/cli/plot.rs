@@ -80,14 +80,23 @@ pub(crate) enum PlotCommand {
         #[arg(short, long)]
         output: PathBuf,
     },
-    /// Directional albedo against θi by integration over the hemisphere (energy check).
-    #[command(after_help = "Example:\n  brdfit plot albedo --fit fit.json -o albedo")]
+    /// Directional albedo against θi by integration over the hemisphere (energy check), with
+    /// an estimate from the samples where they cover the hemisphere.
+    #[command(
+        after_help = "Example:\n  brdfit plot albedo --fit fit.json --data data/blinn-mgo.csv -o albedo"
+    )]
     Albedo {
         /// The fit JSON.
         #[arg(long)]
         fit: Option<PathBuf>,
         #[command(flatten)]
         model: OptModelArgs,
+        /// Measured data: its albedo is estimated at each θi where its samples cover the
+        /// outgoing hemisphere (every one of 6 × 8 equal-projected-area cells sampled).
+        #[arg(long)]
+        data: Option<PathBuf>,
+        #[command(flatten)]
+        load: LoadArgs,
         /// Output base name.
         #[arg(short, long)]
         output: PathBuf,
@@ -200,7 +209,13 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
             save_chart(&chart, &base(&output))?;
             Ok(())
         }
-        PlotCommand::Albedo { fit, model, output } => {
+        PlotCommand::Albedo {
+            fit,
+            model,
+            data,
+            load,
+            output,
+        } => {
             let (label, m) = match (fit, model.build()?) {
                 (Some(f), _) => {
                     let r = read_fits(&f)?.remove(0);
@@ -209,7 +224,20 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                 (None, Some(m)) => (m.kind.to_string(), m),
                 (None, None) => bail!("no model\n  fix: give --fit FILE or --model with --set"),
             };
-            let (chart, pts) = plot::albedo_chart(&label, &m);
+            let measured = match &data {
+                Some(d) => {
+                    let est = plot::measured_albedo(&load.load(d)?, 0);
+                    if est.is_empty() {
+                        eprintln!(
+                            "note: the samples of {} do not cover and resolve the outgoing hemisphere at any θi (6 × 8 cells of equal projected solid angle, each with two samples or more, none outweighing the rest of its cell): no albedo estimate from them",
+                            d.display()
+                        );
+                    }
+                    est
+                }
+                None => vec![],
+            };
+            let (chart, pts) = plot::albedo_chart(&label, &m, &measured);
             save_chart(&chart, &base(&output))?;
             let worst = pts
                 .iter()

@@ -182,6 +182,7 @@ pub(crate) fn run_study(cmd: StudyCommand) -> Result<()> {
                 &output.join("stability"),
             )?;
             let (md, csv) = study::stability_tables(&rows);
+            let md = format!("{}\n\n{md}", study::STABILITY_CELLS);
             write_study_tables(&output, "stability", &title, &md, &csv)?;
             print(&md)
         }

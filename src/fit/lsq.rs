@@ -82,6 +82,10 @@ pub trait Problem: Sync {
     fn bounds(&self) -> Vec<(f64, f64)> {
         vec![(f64::NEG_INFINITY, f64::INFINITY); self.dim()]
     }
+    /// Variable `k` at the value `u`, in words for a message (defaults to `variable k = u`).
+    fn describe(&self, k: usize, u: f64) -> String {
+        format!("variable {k} = {u:.4e}")
+    }
     /// A step each parameter may always take in one Levenberg–Marquardt iteration, whatever
     /// its magnitude (like `x_scale` in scipy's `least_squares`); defaults to 0, a purely
     /// relative bound.
@@ -162,6 +166,30 @@ pub enum Method {
     #[value(name = "nm", alias = "nelder-mead")]
     #[serde(rename = "nm")]
     NelderMead,
+    /// argmin's L-BFGS (memory 7, More–Thuente line search) on the cost and its gradient
+    /// Jᵀr; unconstrained: a step out of the box ends the run.
+    #[value(name = "argmin-lbfgs")]
+    #[serde(rename = "argmin-lbfgs")]
+    ArgminLbfgs,
+    /// argmin's trust region (Steihaug's CG subproblem) with the Gauss–Newton Hessian JᵀJ;
+    /// a trial step out of the box costs +∞ and is rejected; argmin gives it no convergence
+    /// test, so it runs to the iteration limit.
+    #[value(name = "argmin-trust-region")]
+    #[serde(rename = "argmin-trust-region")]
+    ArgminTrustRegion,
+    /// argmin's Gauss–Newton (full steps, no line search) on the residuals and the m×p
+    /// Jacobian; unconstrained: a step out of the box ends the run.
+    #[value(name = "argmin-gauss-newton")]
+    #[serde(rename = "argmin-gauss-newton")]
+    ArgminGaussNewton,
+    /// argmin's Nelder–Mead on the cost, +∞ outside the box.
+    #[value(name = "argmin-nm")]
+    #[serde(rename = "argmin-nm")]
+    ArgminNm,
+    /// argmin's particle swarm (40 particles, seeded) in the box, on the cost.
+    #[value(name = "argmin-pso")]
+    #[serde(rename = "argmin-pso")]
+    ArgminPso,
 }
 
 impl Method {
@@ -171,10 +199,32 @@ impl Method {
             Method::Lm => "lm",
             Method::GaussNewton => "gn",
             Method::NelderMead => "nm",
+            Method::ArgminLbfgs => "argmin-lbfgs",
+            Method::ArgminTrustRegion => "argmin-trust-region",
+            Method::ArgminGaussNewton => "argmin-gauss-newton",
+            Method::ArgminNm => "argmin-nm",
+            Method::ArgminPso => "argmin-pso",
         }
     }
 
-    /// Parse `lm`, `gn` or `nm` (also long names).
+    /// brdfit's own methods, then argmin's, in the order the studies show them.
+    pub const ALL: [Method; 8] = [
+        Method::Lm,
+        Method::GaussNewton,
+        Method::NelderMead,
+        Method::ArgminLbfgs,
+        Method::ArgminTrustRegion,
+        Method::ArgminGaussNewton,
+        Method::ArgminNm,
+        Method::ArgminPso,
+    ];
+
+    /// True for the methods run through argmin (the in-Rust peers).
+    pub fn is_argmin(self) -> bool {
+        !matches!(self, Method::Lm | Method::GaussNewton | Method::NelderMead)
+    }
+
+    /// Parse a command-line name (`lm`, `gn`, `nm`, `argmin-lbfgs`, …; also long names).
     pub fn parse(s: &str) -> Option<Self> {
         <Self as clap::ValueEnum>::from_str(s, true).ok()
     }
@@ -392,6 +442,7 @@ pub fn solve<P: Problem>(
         Method::Lm => levenberg_marquardt(p, x0, robust, limits),
         Method::GaussNewton => gauss_newton(p, x0, robust, limits),
         Method::NelderMead => nelder_mead(p, x0, robust, limits),
+        _ => super::argmin_peer::solve(p, x0, method, robust, limits),
     }
 }
 

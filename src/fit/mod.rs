@@ -12,6 +12,7 @@
 //!    correlations, and honest warnings (with a profiled range) for parameters the data do not
 //!    determine.
 
+mod argmin_peer;
 mod json;
 // Public for the binary and the integration tests (separate crates), not library API.
 #[doc(hidden)]

@@ -597,6 +597,24 @@ impl Problem for BrdfProblem {
         self.transforms.iter().map(|t| t.bounds()).collect()
     }
 
+    /// The parameter behind variable `k` and its natural value, e.g. `pd = -1.587 (pd ≥ 0)`.
+    fn describe(&self, k: usize, u: f64) -> String {
+        let specs = self.template.specs();
+        let named = self
+            .layout
+            .iter()
+            .find_map(|slots| (0..specs.len()).find(|&j| slots[j] == Slot::Free(k)));
+        match named {
+            Some(j) => format!(
+                "{} = {} ({})",
+                specs[j].name,
+                crate::model::readable(self.transforms[k].apply(u).0),
+                specs[j].bounds_text()
+            ),
+            None => format!("variable {k} = {u:.4e}"),
+        }
+    }
+
     /// Logit and log variables may move by 1 per step (a factor e in the odds or the value),
     /// whatever their size; near u = 0 (c3 = ½, say) a relative bound alone would crawl.
     fn step_scale(&self) -> Vec<f64> {
