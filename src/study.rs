@@ -113,16 +113,17 @@ pub fn speed_accuracy(ds: &Dataset, truth: Option<&Model>, repeats: usize) -> Ve
     rows
 }
 
-/// Indices of the rows on the Pareto front of (x, cost): no other row is at least as good in
-/// both and better in one.
+/// Indices of the rows on the Pareto front of (x, y): no other row is at least as good in
+/// both and better in one. Values of y within 1e-6 relative count as equal (fits that end at
+/// the same minimum differ in the last digits), so the faster of two such points dominates.
 pub fn pareto(points: &[(f64, f64)]) -> Vec<usize> {
+    let no_worse = |a: f64, b: f64| a <= b + 1e-6 * b.abs();
+    let better = |a: f64, b: f64| a < b - 1e-6 * b.abs();
     let mut idx: Vec<usize> = (0..points.len())
         .filter(|&i| {
+            let p = points[i];
             !points.iter().enumerate().any(|(j, q)| {
-                j != i
-                    && q.0 <= points[i].0
-                    && q.1 <= points[i].1
-                    && (q.0 < points[i].0 || q.1 < points[i].1)
+                j != i && q.0 <= p.0 && no_worse(q.1, p.1) && (q.0 < p.0 || better(q.1, p.1))
             })
         })
         .collect();
@@ -130,17 +131,30 @@ pub fn pareto(points: &[(f64, f64)]) -> Vec<usize> {
     idx
 }
 
-/// The speed–accuracy chart in time: two panels, each with x = fit time (log) and y = the
-/// cost above the best any run found, relative (log, floored at 1e-10 so the best shows):
-/// the solvers on Torrance–Sparrow (D3), and every model with its best solver (lowest cost,
-/// then, within 1e-6 relative, the fastest). Colour = method, marker = model, a direct label on every point, and the
-/// Pareto front (non-dominated points) as a step line.
+/// The speed–accuracy chart in time, x = fit time (log) in every panel: the solvers on
+/// Torrance–Sparrow (D3) and every model with its best solver (lowest cost, then, within 1e-6
+/// relative, the fastest), y = the cost above the best any run found, relative (log, floored
+/// at 1e-10 so the best shows); and, where the file carries its truth, the solvers on the
+/// true model with y = the largest relative parameter error. Colour = method, marker =
+/// model, a direct label on every point, and the Pareto front (non-dominated points) ringed
+/// and joined by a step line.
 #[derive(Clone, Debug)]
 pub struct SpeedChart {
     /// Title.
     pub title: String,
-    /// Panels: (title, points).
-    pub panels: Vec<(String, Vec<SpeedPoint>)>,
+    /// Panels, left to right.
+    pub panels: Vec<SpeedPanel>,
+}
+
+/// One panel of [`SpeedChart`].
+#[derive(Clone, Debug)]
+pub struct SpeedPanel {
+    /// Title.
+    pub title: String,
+    /// What y is.
+    pub y_label: String,
+    /// The points.
+    pub points: Vec<SpeedPoint>,
 }
 
 /// One point of [`SpeedChart`].
@@ -152,7 +166,8 @@ pub struct SpeedPoint {
     pub model: String,
     /// Fit time (s).
     pub seconds: f64,
-    /// Relative cost above the best found, floored at [`COST_FLOOR`].
+    /// y: the relative cost above the best found (or the parameter error), floored at
+    /// [`COST_FLOOR`].
     pub excess: f64,
     /// On the panel's Pareto front.
     pub front: bool,
@@ -196,15 +211,38 @@ pub fn speed_chart(title: &str, rows: &[SpeedRow]) -> SpeedChart {
         }
         pts
     };
+    let cost_axis = "relative cost above the best found (log)".to_string();
+    let mut panels = vec![
+        SpeedPanel {
+            title: format!("solvers on {ts}"),
+            y_label: cost_axis.clone(),
+            points: with_front(solvers),
+        },
+        SpeedPanel {
+            title: "models, each with its best solver".into(),
+            y_label: cost_axis,
+            points: with_front(models),
+        },
+    ];
+    let truth: Vec<SpeedPoint> = rows
+        .iter()
+        .filter_map(|r| {
+            Some(SpeedPoint {
+                excess: r.param_error?.max(COST_FLOOR),
+                ..point(r)
+            })
+        })
+        .collect();
+    if let Some(first) = truth.first() {
+        panels.push(SpeedPanel {
+            title: format!("solvers on the true model, {}", first.model),
+            y_label: "largest relative parameter error (log)".into(),
+            points: with_front(truth),
+        });
+    }
     SpeedChart {
         title: title.to_string(),
-        panels: vec![
-            (format!("solvers on {ts}"), with_front(solvers)),
-            (
-                "models, each with its best solver".into(),
-                with_front(models),
-            ),
-        ],
+        panels,
     }
 }
 
@@ -227,7 +265,7 @@ pub fn method_colour(name: &str) -> plotters::style::RGBColor {
 
 impl crate::plot::Chart for SpeedChart {
     fn size(&self) -> (u32, u32) {
-        (1200, 500)
+        ((500 * self.panels.len() as u32).max(1000), 500)
     }
 
     fn draw<DB: plotters::prelude::DrawingBackend>(
@@ -245,38 +283,37 @@ impl crate::plot::Chart for SpeedChart {
             let mut v: Vec<&str> = self
                 .panels
                 .iter()
-                .flat_map(|p| p.1.iter().map(|q| q.model.as_str()))
+                .flat_map(|p| p.points.iter().map(|q| q.model.as_str()))
                 .collect();
             v.dedup();
             v.sort();
             v.dedup();
             v
         };
-        for ((ptitle, pts), area) in self.panels.iter().zip(&areas) {
+        for (panel, area) in self.panels.iter().zip(&areas) {
+            let pts = &panel.points;
             if pts.is_empty() {
                 continue;
             }
             let (x0, x1) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
                 (a.min(p.seconds), b.max(p.seconds))
             });
-            let y1 = pts
-                .iter()
-                .map(|p| p.excess)
-                .fold(COST_FLOOR * 10.0, f64::max);
+            let y0 = pts.iter().map(|p| p.excess).fold(f64::INFINITY, f64::min);
+            let y1 = pts.iter().map(|p| p.excess).fold(y0 * 10.0, f64::max);
             let mut chart = ChartBuilder::on(area)
-                .caption(ptitle, ("sans-serif", 15))
+                .caption(&panel.title, ("sans-serif", 15))
                 .margin(12)
                 .x_label_area_size(44)
                 .y_label_area_size(70)
                 .build_cartesian_2d(
                     (x0 / 2.0..x1 * 6.0).log_scale(),
-                    (COST_FLOOR / 3.0..y1 * 30.0).log_scale(),
+                    (y0 / 3.0..y1 * 30.0).log_scale(),
                 )
                 .map_err(crate::plot::err)?;
             chart
                 .configure_mesh()
                 .x_desc("fit time (s, log)")
-                .y_desc("relative cost above the best found (log)")
+                .y_desc(panel.y_label.as_str())
                 .x_label_formatter(&|v| crate::model::significant(*v, 2))
                 .y_label_formatter(&|v| format!("{v:.0e}"))
                 .label_style(("sans-serif", 13))

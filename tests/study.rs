@@ -34,7 +34,18 @@ fn speed_accuracy_covers_every_method_and_model() {
     }
     // On the real rows: no point beats a front point in both time and cost.
     let chart = study::speed_chart("t", &rows);
-    for (_, pts) in &chart.panels {
+    // With the truth in the file a third panel shows the parameter error of each solver.
+    assert_eq!(chart.panels.len(), 3);
+    assert_eq!(chart.panels[2].points.len(), Method::ALL.len());
+    for p in &chart.panels[2].points {
+        let r = rows
+            .iter()
+            .find(|r| r.method == p.method && r.model == p.model)
+            .unwrap();
+        assert_eq!(p.excess, r.param_error.unwrap().max(study::COST_FLOOR));
+    }
+    for panel in &chart.panels {
+        let pts = &panel.points;
         for p in pts.iter().filter(|p| p.front) {
             assert!(
                 !pts.iter()
@@ -61,9 +72,10 @@ fn speed_accuracy_covers_every_method_and_model() {
         row("nm", "phong", 0.003, 4.0),
     ];
     let chart = study::speed_chart("known", &known);
+    assert_eq!(chart.panels.len(), 2, "no truth, no parameter-error panel");
     let front = |panel: usize| -> Vec<String> {
         chart.panels[panel]
-            .1
+            .points
             .iter()
             .filter(|p| p.front)
             .map(|p| format!("{} {}", p.method, p.model))
@@ -76,7 +88,7 @@ fn speed_accuracy_covers_every_method_and_model() {
     // Each model with its best solver: TS by lm (cost 1), Phong by nm (cost 4); both on the
     // front (Phong is faster, TS lower).
     let best: Vec<(String, String)> = chart.panels[1]
-        .1
+        .points
         .iter()
         .map(|p| (p.model.clone(), p.method.clone()))
         .collect();
@@ -89,8 +101,8 @@ fn speed_accuracy_covers_every_method_and_model() {
     );
     assert_eq!(front(1).len(), 2);
     // The best point sits on the floor of the log axis; the others at their relative excess.
-    assert_eq!(chart.panels[0].1[0].excess, study::COST_FLOOR);
-    assert!((chart.panels[0].1[2].excess - 1.0).abs() < 1e-12);
+    assert_eq!(chart.panels[0].points[0].excess, study::COST_FLOOR);
+    assert!((chart.panels[0].points[2].excess - 1.0).abs() < 1e-12);
     let dir = tempfile::tempdir().unwrap();
     brdfit::plot::save(&chart, &dir.path().join("speed")).unwrap();
     let (md, csv) = study::speed_tables(&rows, false);
@@ -159,4 +171,18 @@ fn stability_counts_starts_per_configuration() {
     assert_eq!(n, 16 * 2 * methods);
     let dir = tempfile::tempdir().unwrap();
     brdfit::plot::save(&chart, &dir.path().join("h")).unwrap();
+}
+
+/// The Pareto front: dominated points are off it, and a slower point whose y equals a faster
+/// one's to 1e-6 relative (the same minimum) is dominated.
+#[test]
+fn pareto_front_of_known_points() {
+    let pts = [
+        (1.0, 1.0),
+        (2.0, 1.0 - 1e-9),
+        (0.5, 3.0),
+        (3.0, 0.5),
+        (4.0, 0.6),
+    ];
+    assert_eq!(study::pareto(&pts), [2, 0, 3]);
 }
