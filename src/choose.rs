@@ -653,7 +653,7 @@ pub fn write(
     let mut wrote = Vec::new();
     for (case, imgs) in result.cases.iter().zip(images) {
         let sub = dir.join(&case.case);
-        std::fs::create_dir_all(&sub)?;
+        crate::output::create_dir(&sub)?;
         for (k, (name, img)) in imgs.renders.iter().enumerate() {
             let base = sub.join(if k == 0 { "measured" } else { name.as_str() });
             wrote.extend(crate::render::save(img, &base)?);

@@ -13,17 +13,47 @@ pub fn temp_name(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.brdfit-tmp-{}", std::process::id()))
 }
 
+/// The folders this process created for its outputs, not yet announced.
+static CREATED: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Create the folder `dir` with its missing parents, and record the topmost folder created
+/// so that the command can say so ([`take_created`]).
+pub fn create_dir(dir: &Path) -> io::Result<()> {
+    if dir.as_os_str().is_empty() || dir.is_dir() {
+        return Ok(());
+    }
+    let mut top = dir;
+    while let Some(p) = top.parent() {
+        if p.as_os_str().is_empty() || p.exists() {
+            break;
+        }
+        top = p;
+    }
+    let top = top.to_path_buf();
+    std::fs::create_dir_all(dir)?;
+    if let Ok(mut c) = CREATED.lock() {
+        c.push(top);
+    }
+    Ok(())
+}
+
+/// The folders created since the last call, in the order they were created.
+pub fn take_created() -> Vec<PathBuf> {
+    CREATED
+        .lock()
+        .map(|mut c| std::mem::take(&mut *c))
+        .unwrap_or_default()
+}
+
 /// Write `path` atomically: `write` fills a temporary file beside it, which is renamed over
-/// `path` only when `write` succeeded; otherwise the temporary file is removed.
+/// `path` only when `write` succeeded; otherwise the temporary file is removed. A missing
+/// parent folder is created ([`create_dir`]).
 pub fn write_atomic<F>(path: &Path, write: F) -> io::Result<()>
 where
     F: FnOnce(&mut dyn Write) -> io::Result<()>,
 {
-    if let Some(dir) = path.parent()
-        && !dir.as_os_str().is_empty()
-        && !dir.exists()
-    {
-        std::fs::create_dir_all(dir)?;
+    if let Some(dir) = path.parent() {
+        create_dir(dir)?;
     }
     let tmp = temp_name(path);
     let result = (|| {

@@ -634,54 +634,99 @@ pub fn albedo(model: &Model, theta_i_deg: f64) -> f64 {
     sum
 }
 
-/// Rings (equal projected solid angle) and relative-azimuth sectors of the cells
-/// [`measured_albedo`] integrates over.
-pub const ALBEDO_CELLS: (usize, usize) = (6, 8);
+/// Rings (equal projected solid angle) and relative-azimuth sectors (over the full circle,
+/// each sample counted at ±Δφ) of the cells [`measured_albedo`] integrates over.
+pub const ALBEDO_CELLS: (usize, usize) = (6, 16);
+
+/// Largest relative difference between the two quadratures of [`measured_albedo`] (sectors
+/// as they are, and turned by half a sector) for an estimate to be given.
+pub const ALBEDO_AGREEMENT: f64 = 0.05;
 
 /// Directional albedo estimated from the samples themselves, at each incidence angle the
-/// sampling allows: the samples within ±2.5° of θi = 0°, 5°, …, 85° are sorted into cells of
-/// equal projected solid angle over the outgoing hemisphere (6 rings with sin²θo = k/6 × 8
-/// sectors of relative azimuth |φo − φi| in [0°, 180°], folded by isotropy), and
-/// ρ(θi) ≈ (π / cells) Σ_cells mean f_r (each cell has projected solid angle π/48 counting
-/// both azimuth halves). Only where every cell holds two samples or more and no sample
-/// outweighs the rest of its cell (the lobe is resolved) is a value given: a file sampled in
-/// the plane of incidence alone, with an empty region of the hemisphere, or on a grid coarser
-/// than its highlight (MERL aluminium's 15° azimuth steps) has none there. Returns (θi in
+/// sampling allows. The samples within ±2.5° of θi = 0°, 5°, …, 85° are sorted into cells of
+/// equal projected solid angle over the outgoing hemisphere: 6 rings with sin²θo = k/6 × 16
+/// sectors of relative azimuth, each sample counted at +Δφ and −Δφ (isotropy). Then
+/// ρ(θi) ≈ (π / cells) Σ_cells f̄_cell, f̄_cell the mean over the cell's four sub-rings (equal
+/// projected solid angle) of their samples' mean f_r, so that a sampling denser in part of a
+/// ring (1° steps in θo, or uniform in solid angle) does not weigh that part more.
+///
+/// A value is given only where the sampling resolves the integrand: every cell holds two
+/// samples or more, no sample outweighs all the others of its cell together, and the
+/// quadrature with the sectors turned by half a sector agrees within [`ALBEDO_AGREEMENT`].
+/// A narrow highlight caught by one column of a coarse grid (MERL's 15° azimuth steps) stands
+/// in for far more than its area, and the turned sectors split it differently, so such a θi
+/// gets none; nor does a file sampled in the plane of incidence alone. Returns (θi in
 /// degrees, ρ).
 pub fn measured_albedo(ds: &Dataset, c: usize) -> Vec<(f64, f64)> {
-    let (rings, sectors) = ALBEDO_CELLS;
-    let cells = rings * sectors;
     let vals = ds.brdf_values(c);
     let mut out = Vec::new();
     for k in 0..18 {
         let centre = 5.0 * k as f64;
-        let mut sum = vec![0.0; cells];
-        let mut count = vec![0usize; cells];
-        let mut peak = vec![0.0f64; cells];
-        for (j, v) in vals.iter().enumerate() {
-            let [ti, pi, to, po] = ds.angles(j);
-            if !v.is_finite() || (ti.to_degrees() - centre).abs() > 2.5 || to >= 0.5 * PI {
-                continue;
-            }
-            let ring = ((to.sin().powi(2) * rings as f64) as usize).min(rings - 1);
-            let dphi = (po - pi).rem_euclid(2.0 * PI);
-            let dphi = if dphi > PI { 2.0 * PI - dphi } else { dphi };
-            let sector = ((dphi / PI * sectors as f64) as usize).min(sectors - 1);
-            let i = ring * sectors + sector;
-            sum[i] += v;
-            count[i] += 1;
-            peak[i] = peak[i].max(*v);
-        }
-        // The lobe must be resolved: in no cell may one sample outweigh all the others
-        // together (a sharp peak caught by one sample of a coarse grid stands in for an area
-        // far larger than the peak, and the estimate would be far too high).
-        let resolved = (0..cells).all(|i| count[i] >= 2 && 2.0 * peak[i] <= sum[i]);
-        if resolved {
-            let rho: f64 = sum.iter().zip(&count).map(|(s, n)| s / *n as f64).sum();
-            out.push((centre, PI / cells as f64 * rho));
+        // (sin²θo, Δφ in [0, π], f_r) of the samples at this θi.
+        let samples: Vec<(f64, f64, f64)> = vals
+            .iter()
+            .enumerate()
+            .filter_map(|(j, v)| {
+                let [ti, pi, to, po] = ds.angles(j);
+                if !v.is_finite() || (ti.to_degrees() - centre).abs() > 2.5 || to >= 0.5 * PI {
+                    return None;
+                }
+                let dphi = (po - pi).rem_euclid(2.0 * PI);
+                let dphi = if dphi > PI { 2.0 * PI - dphi } else { dphi };
+                Some((to.sin().powi(2), dphi, *v))
+            })
+            .collect();
+        if let (Some(a), Some(b)) = (
+            cell_quadrature(&samples, 0.0),
+            cell_quadrature(&samples, 0.5),
+        ) && (a - b).abs() <= ALBEDO_AGREEMENT * a.abs()
+        {
+            out.push((centre, a));
         }
     }
     out
+}
+
+/// The cell quadrature of [`measured_albedo`] with the sectors turned by `shift` sectors;
+/// `None` where a cell is not resolved.
+fn cell_quadrature(samples: &[(f64, f64, f64)], shift: f64) -> Option<f64> {
+    const SUB: usize = 4;
+    let (rings, sectors) = ALBEDO_CELLS;
+    let cells = rings * sectors;
+    let mut sum = vec![0.0; cells * SUB];
+    let mut count = vec![0usize; cells * SUB];
+    let mut peak = vec![0.0f64; cells];
+    let width = 2.0 * PI / sectors as f64;
+    for &(u, dphi, v) in samples {
+        let fine = ((u * (rings * SUB) as f64) as usize).min(rings * SUB - 1);
+        let (ring, sub) = (fine / SUB, fine % SUB);
+        for phi in [dphi, 2.0 * PI - dphi] {
+            // At Δφ = 0 or π the two are one direction: count it once.
+            if phi == 2.0 * PI - dphi && (dphi == 0.0 || dphi == PI) {
+                continue;
+            }
+            let sector = ((phi / width + shift).floor() as usize) % sectors;
+            let cell = ring * sectors + sector;
+            sum[cell * SUB + sub] += v;
+            count[cell * SUB + sub] += 1;
+            peak[cell] = peak[cell].max(v);
+        }
+    }
+    let mut rho = 0.0;
+    for cell in 0..cells {
+        let subs = cell * SUB..(cell + 1) * SUB;
+        let n: usize = count[subs.clone()].iter().sum();
+        let raw: f64 = sum[subs.clone()].iter().sum();
+        if n < 2 || 2.0 * peak[cell] > raw {
+            return None;
+        }
+        let means: Vec<f64> = subs
+            .filter(|&i| count[i] > 0)
+            .map(|i| sum[i] / count[i] as f64)
+            .collect();
+        rho += means.iter().sum::<f64>() / means.len() as f64;
+    }
+    Some(PI / cells as f64 * rho)
 }
 
 /// Generic x–y chart with several series (lines or markers), for residual, albedo and study

@@ -153,7 +153,7 @@ struct DataSet<'a> {
 /// timings.json, and one folder per data set. The steps are the functions below, in order.
 pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
     let root = &opts.out;
-    std::fs::create_dir_all(root).with_context(|| format!("creating {}", root.display()))?;
+    crate::output::create_dir(root).with_context(|| format!("creating {}", root.display()))?;
     let t_all = Instant::now();
     let mut doc = Doc::default();
     let mut results = Vec::new();
@@ -645,25 +645,38 @@ fn studies(
         &rows,
     );
     let (png, svg) = save_chart(&chart, root, &format!("{dir}/speed-accuracy"))?;
-    doc.figure(&png, Some(&svg), "Cost above the best found against fit time (measured in this run): left, the solvers on Torrance–Sparrow (D3); right, each model with its best solver; ringed points and the step line mark the Pareto front (no point is both faster and lower)");
+    doc.figure(&png, Some(&svg), "Fit time (measured in this run) against the cost above the best found, for the solvers on Torrance–Sparrow (D3) and for each model with its best solver, and, where the file carries its truth, against each solver's largest parameter error; ringed points and the step line mark the Pareto front (no point is both faster and better)");
     {
-        // Deterministic (no times): which solvers reach the lowest cost, and the best model.
-        let best = rows.iter().map(|r| r.cost).fold(f64::INFINITY, f64::min);
-        let reach: Vec<&str> = rows
+        // Deterministic (no times): which solvers reach the lowest cost found on
+        // Torrance–Sparrow (D3), which do not, and the best model.
+        let ts_rows: Vec<&study::SpeedRow> = rows
             .iter()
-            .filter(|r| r.model == "torrance-sparrow (d3)" && r.cost <= best * (1.0 + 1e-6))
-            .map(|r| r.method.as_str())
+            .filter(|r| r.model == "torrance-sparrow (d3)")
             .collect();
+        let best = ts_rows.iter().map(|r| r.cost).fold(f64::INFINITY, f64::min);
+        let (reach, miss): (Vec<&study::SpeedRow>, Vec<&study::SpeedRow>) =
+            ts_rows.iter().partition(|r| r.cost <= best * (1.0 + 1e-6));
+        let names = |v: &[&study::SpeedRow]| {
+            v.iter()
+                .map(|r| r.method.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
         let lowest = rows
             .iter()
             .min_by(|a, b| a.cost.total_cmp(&b.cost))
             .map_or(String::new(), |r| r.model.clone());
         doc.p(&format!(
-            "Takeaway: the lowest cost is {lowest}'s; on Torrance–Sparrow (D3) {} reach it.",
-            if reach.is_empty() {
-                "no solver".to_string()
+            "Takeaway: the lowest cost of all is {lowest}'s. On Torrance–Sparrow (D3) {} reach \
+             the lowest cost found for it{}.",
+            names(&reach),
+            if miss.is_empty() {
+                String::new()
             } else {
-                reach.join(", ")
+                format!(
+                    "; {} do not (see why each stopped in the table)",
+                    names(&miss)
+                )
             }
         ));
     }
@@ -722,9 +735,10 @@ fn albedo_agreement(fit: &[(f64, f64)], measured: &[(f64, f64)]) -> String {
                  the albedo cannot be estimated from them."
             .into(),
         Some((t, d)) => format!(
-            "The estimate from the samples ({} incidence angles) differs from the fit by at \
+            "The estimate from the samples ({} incidence angle{}) differs from the fit by at \
              most {} % (θi = {t}°).",
             measured.len(),
+            if measured.len() == 1 { "" } else { "s" },
             crate::model::significant(100.0 * d.abs(), 2)
         ),
     }

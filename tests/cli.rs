@@ -767,7 +767,8 @@ fn errors_print_once_with_the_flag() {
 }
 
 /// The README's tour, run twice in a row in an empty folder: every command succeeds both
-/// times (an existing output is replaced), and every command that writes says `wrote PATH`.
+/// times (an existing output is replaced), every command that writes says `wrote PATH`, and
+/// a folder made for the outputs is named (`created DIR/`) the first time only.
 #[test]
 fn readme_tour_runs_twice() {
     let root = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"));
@@ -801,6 +802,7 @@ fn readme_tour_runs_twice() {
     assert!(commands.len() >= 6, "{commands:?}");
     let dir = tempfile::tempdir().unwrap();
     for round in 0..2 {
+        let mut created = 0;
         for args in &commands {
             let o = Command::new(env!("CARGO_BIN_EXE_brdfit"))
                 .args(args)
@@ -824,7 +826,21 @@ fn readme_tour_runs_twice() {
                     );
                 }
             }
+            // A folder made for the outputs is named once, when it is made.
+            for line in err.lines().filter_map(|l| l.strip_prefix("created ")) {
+                assert!(
+                    line.ends_with('/') && dir.path().join(line).is_dir(),
+                    "{args:?}: {line}"
+                );
+                created += 1;
+            }
         }
+        // Round 0 makes the tour's folders (fig7, choose, …); round 1 finds them.
+        assert_eq!(
+            created > 0,
+            round == 0,
+            "round {round}: {created} folders named"
+        );
     }
 }
 

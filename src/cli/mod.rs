@@ -47,12 +47,24 @@ pub(crate) static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::Atom
 pub(crate) static VERBOSE: std::sync::atomic::AtomicBool =
     std::sync::atomic::AtomicBool::new(false);
 
-/// Announce a file the command wrote, on stderr (`wrote PATH`), unless --quiet. The one rule
-/// for outputs: an existing file is replaced (atomically), an output that is one of the
-/// inputs is refused, and missing parent folders are created.
+/// Announce a file the command wrote, on stderr (`wrote PATH`), after any folder created
+/// for it (`created DIR/`), unless --quiet. The one rule for outputs: an existing file is
+/// replaced (atomically), an output that is one of the inputs is refused, and missing parent
+/// folders are created and named.
 pub(crate) fn wrote(path: &Path) {
+    announce_created(None);
     if !quiet() {
         eprintln!("wrote {}", path.display());
+    }
+}
+
+/// Announce the folders created since the last announcement (`created DIR/`), leaving out
+/// those inside `within` (a report's own sub-folders, counted with its files).
+pub(crate) fn announce_created(within: Option<&Path>) {
+    for d in brdfit::output::take_created() {
+        if !quiet() && within.is_none_or(|w| !d.starts_with(w) || d == w) {
+            eprintln!("created {}/", d.display());
+        }
     }
 }
 

@@ -91,8 +91,8 @@ pub(crate) enum PlotCommand {
         fit: Option<PathBuf>,
         #[command(flatten)]
         model: OptModelArgs,
-        /// Measured data: its albedo is estimated at each θi where its samples cover the
-        /// outgoing hemisphere (every one of 6 × 8 equal-projected-area cells sampled).
+        /// Measured data: its albedo is estimated at each θi where its samples cover and
+        /// resolve the outgoing hemisphere (see the README).
         #[arg(long)]
         data: Option<PathBuf>,
         #[command(flatten)]
@@ -229,7 +229,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                     let est = plot::measured_albedo(&load.load(d)?, 0);
                     if est.is_empty() {
                         eprintln!(
-                            "note: the samples of {} do not cover and resolve the outgoing hemisphere at any θi (6 × 8 cells of equal projected solid angle, each with two samples or more, none outweighing the rest of its cell): no albedo estimate from them",
+                            "note: the samples of {} do not cover and resolve the outgoing hemisphere at any θi (6 × 16 cells of equal projected solid angle, each with two samples or more, none outweighing the rest of its cell, and the same value with the cells turned by half a sector): no albedo estimate from them",
                             d.display()
                         );
                     }

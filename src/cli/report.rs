@@ -32,6 +32,8 @@ pub(crate) fn run_report(
             verbose: !quiet,
         },
     )?;
+    // The output folder if it was created; its sub-folders are counted with the files.
+    announce_created(Some(output));
     // The four files a reader opens; the rest (charts, renders, CSV) are counted.
     let main = ["index.html", "report.md", "results.json", "timings.json"];
     for f in main {
