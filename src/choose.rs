@@ -970,7 +970,7 @@ impl crate::plot::Chart for TradeoffChart {
             .configure_mesh()
             .x_desc("fit + render time (s, log scale)")
             .y_desc(metric.key())
-            .x_label_formatter(&|v| crate::model::readable(*v))
+            .x_label_formatter(&|v| crate::plot::log_tick(*v))
             .label_style(("sans-serif", 13))
             .axis_desc_style(("sans-serif", 14))
             .light_line_style(RGBColor(235, 235, 235))

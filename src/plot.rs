@@ -193,6 +193,24 @@ pub fn tick(v: f64) -> String {
     if s == "-0" { "0".into() } else { s }
 }
 
+/// A tick label on a logarithmic axis: the value where its mantissa is 1, 2 or 5 (plotters
+/// puts a tick at every 1…9 × 10^k when an axis spans little more than a decade, and their
+/// labels run into each other), else nothing.
+pub fn log_tick(v: f64) -> String {
+    if !(v > 0.0) {
+        return String::new();
+    }
+    let m = v / 10f64.powf(v.log10().floor());
+    if [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .any(|t| (m - t).abs() < 1e-6 * t)
+    {
+        crate::model::significant(v, 2)
+    } else {
+        String::new()
+    }
+}
+
 /// Place a label of `w`×`h` pixels beside the point (px, py), inside `bounds` (left, top,
 /// right, bottom: the plotting area) and overlapping no box in `placed`: the first free spot
 /// of right, then left of the point, on its line, then one line up, one down, two up, …

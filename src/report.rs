@@ -674,8 +674,9 @@ fn studies(
                 String::new()
             } else {
                 format!(
-                    "; {} do not (see why each stopped in the table)",
-                    names(&miss)
+                    "; {} {} not (see why each stopped in the table)",
+                    names(&miss),
+                    if miss.len() == 1 { "does" } else { "do" }
                 )
             }
         ));
@@ -780,7 +781,7 @@ fn assemble(
     t_all: Instant,
 ) -> Result<()> {
     let mut html = String::from(
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>brdfit report</title>\n<style>\nbody{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}\ntable{border-collapse:collapse;margin:0.5em 0}\ntd,th{border:1px solid #bbb;padding:3px 8px;text-align:left}\nimg{max-width:100%}\nfigure{margin:1em 0}\nfigure.small{display:inline-block;width:24%;margin:0.3em}\npre{background:#f4f4f4;padding:0.6em;overflow-x:auto}\n</style>\n</head>\n<body>\n<h1>brdfit report</h1>\n",
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>brdfit report</title>\n<style>\nbody{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}\ntable{border-collapse:collapse;margin:0.5em 0}\ntd,th{border:1px solid #bbb;padding:3px 8px;text-align:left}\ntd.short{white-space:nowrap}\nimg{max-width:100%}\nfigure{margin:1em 0}\nfigure.small{display:inline-block;width:24%;margin:0.3em}\npre{background:#f4f4f4;padding:0.6em;overflow-x:auto}\n</style>\n</head>\n<body>\n<h1>brdfit report</h1>\n",
     );
     let mut md = String::from("# brdfit report\n\n");
     let head = [
@@ -936,7 +937,13 @@ fn md_table_to_html(md: &str) -> String {
         let tag = if k == 0 { "th" } else { "td" };
         out.push_str("<tr>");
         for c in cells {
-            let _ = write!(out, "<{tag}>{}</{tag}>", esc(c));
+            // A short cell (a number, a count, a name) is never broken, say at the hyphen of
+            // 3.2e-2.
+            if tag == "td" && c.chars().count() <= 18 {
+                let _ = write!(out, "<td class=\"short\">{}</td>", esc(c));
+            } else {
+                let _ = write!(out, "<{tag}>{}</{tag}>", esc(c));
+            }
         }
         out.push_str("</tr>\n");
     }

@@ -263,9 +263,18 @@ pub fn method_colour(name: &str) -> plotters::style::RGBColor {
     }
 }
 
+impl SpeedChart {
+    /// Rows and columns of the panels: two to a row, so that the chart is at most 1,200 px
+    /// wide and its text is read at full size in the report.
+    fn grid(panels: usize) -> (usize, usize) {
+        (panels.div_ceil(2).max(1), panels.clamp(1, 2))
+    }
+}
+
 impl crate::plot::Chart for SpeedChart {
     fn size(&self) -> (u32, u32) {
-        ((500 * self.panels.len() as u32).max(1000), 500)
+        let (rows, cols) = Self::grid(self.panels.len());
+        (600 * cols as u32, 30 + 460 * rows as u32)
     }
 
     fn draw<DB: plotters::prelude::DrawingBackend>(
@@ -277,7 +286,8 @@ impl crate::plot::Chart for SpeedChart {
         let root = root
             .titled(&self.title, ("sans-serif", 18))
             .map_err(crate::plot::err)?;
-        let areas = root.split_evenly((1, self.panels.len().max(1)));
+        let (rows, cols) = Self::grid(self.panels.len());
+        let areas = root.split_evenly((rows, cols));
         let colour = method_colour;
         let models: Vec<&str> = {
             let mut v: Vec<&str> = self
@@ -290,6 +300,28 @@ impl crate::plot::Chart for SpeedChart {
             v.dedup();
             v
         };
+        // An odd number of panels leaves a cell free: how to read the chart goes there.
+        if let Some(area) = areas.get(self.panels.len()) {
+            let lines = [
+                "How to read it",
+                "Each point is one fit with the whole pipeline (global",
+                "initialisation, a subsample, then every sample), timed in",
+                "this run. Colour: the method; marker: the model.",
+                "Ringed and joined by the step line: the Pareto front.",
+                "argmin's solvers run on the same problem under brdfit's",
+                "iteration and evaluation limits; the table says why each",
+                "one stopped.",
+            ];
+            for (k, line) in lines.iter().enumerate() {
+                let size = if k == 0 { 15.0 } else { 13.0 };
+                area.draw(&Text::new(
+                    line.to_string(),
+                    (40, 60 + 22 * k as i32 + if k > 0 { 8 } else { 0 }),
+                    ("sans-serif", size).into_font(),
+                ))
+                .map_err(crate::plot::err)?;
+            }
+        }
         for (panel, area) in self.panels.iter().zip(&areas) {
             let pts = &panel.points;
             if pts.is_empty() {
@@ -314,7 +346,7 @@ impl crate::plot::Chart for SpeedChart {
                 .configure_mesh()
                 .x_desc("fit time (s, log)")
                 .y_desc(panel.y_label.as_str())
-                .x_label_formatter(&|v| crate::model::significant(*v, 2))
+                .x_label_formatter(&|v| crate::plot::log_tick(*v))
                 .y_label_formatter(&|v| format!("{v:.0e}"))
                 .label_style(("sans-serif", 13))
                 .axis_desc_style(("sans-serif", 13))

@@ -306,3 +306,16 @@ fn measured_albedo_from_the_samples() {
     let plane = simulate(&mgo, &Grid::Plane(vec![30.0, 60.0]).directions(1), 0.0, 1);
     assert!(plot::measured_albedo(&plane, 0).is_empty());
 }
+
+/// Log-axis tick labels only at 1, 2 and 5 × 10^k, so that dense minor ticks do not run
+/// into each other.
+#[test]
+fn log_tick_labels() {
+    assert_eq!(plot::log_tick(0.001), "0.001");
+    assert_eq!(plot::log_tick(0.002), "0.002");
+    assert_eq!(plot::log_tick(0.005), "0.005");
+    assert_eq!(plot::log_tick(20.0), "20");
+    assert_eq!(plot::log_tick(0.003), "");
+    assert_eq!(plot::log_tick(0.007), "");
+    assert_eq!(plot::log_tick(0.0), "");
+}

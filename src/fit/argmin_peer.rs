@@ -421,36 +421,7 @@ pub(super) fn solve<P: Problem>(
 mod tests {
     use super::*;
 
-    /// Rosenbrock as least squares, r1 = 10(x2 − x1²), r2 = 1 − x1, with an optional box.
-    struct Rosen(Vec<(f64, f64)>);
-    impl Problem for Rosen {
-        type Prepared = Vec<f64>;
-        fn dim(&self) -> usize {
-            2
-        }
-        fn n_residuals(&self) -> usize {
-            2
-        }
-        fn prepare(&self, x: &[f64]) -> Option<Vec<f64>> {
-            Some(x.to_vec())
-        }
-        fn residual_grad(&self, x: &Vec<f64>, i: usize, row: &mut [f64]) -> f64 {
-            if i == 0 {
-                row[0] = -20.0 * x[0];
-                row[1] = 10.0;
-                10.0 * (x[1] - x[0] * x[0])
-            } else {
-                row[0] = -1.0;
-                row[1] = 0.0;
-                1.0 - x[0]
-            }
-        }
-        fn bounds(&self) -> Vec<(f64, f64)> {
-            self.0.clone()
-        }
-    }
-
-    const FREE: (f64, f64) = (f64::NEG_INFINITY, f64::INFINITY);
+    use crate::fit::lsq::tests::Rosen;
 
     fn peer<'a>(p: &'a Rosen, robust: Robust, track: &'a RefCell<Track>) -> Peer<'a, Rosen> {
         Peer {
@@ -464,7 +435,7 @@ mod tests {
 
     #[test]
     fn gradient_and_jacobian_match_finite_differences() {
-        let p = Rosen(vec![FREE; 2]);
+        let p = Rosen::free();
         for robust in [Robust::None, Robust::Huber(0.5), Robust::Cauchy(0.5)] {
             let track = RefCell::new(Track::default());
             let w = peer(&p, robust, &track);
@@ -501,7 +472,7 @@ mod tests {
 
     #[test]
     fn every_argmin_method_solves_rosenbrock() {
-        let p = Rosen(vec![FREE; 2]);
+        let p = Rosen::free();
         for m in Method::ALL.into_iter().filter(|m| m.is_argmin()) {
             let s = solve(&p, &[-1.2, 1.0], m, Robust::None, &Limits::default());
             // The swarm is a global search with 40 particles and no local refinement.
@@ -519,7 +490,7 @@ mod tests {
     fn a_step_out_of_the_box_ends_the_run_inside_it() {
         // Rosenbrock's minimum (1, 1) lies outside x1 ≤ 0.5: an unconstrained solver must
         // step out, and the run ends there, returning the best point inside the box.
-        let p = Rosen(vec![(-2.0, 0.5), FREE]);
+        let p = Rosen(vec![(-2.0, 0.5), (f64::NEG_INFINITY, f64::INFINITY)]);
         for m in [Method::ArgminLbfgs, Method::ArgminGaussNewton] {
             let s = solve(&p, &[-1.2, 1.0], m, Robust::None, &Limits::default());
             assert!(s.termination.contains("left the bounds"), "{m:?}: {s:?}");
@@ -543,7 +514,7 @@ mod tests {
 
     #[test]
     fn the_evaluation_limit_binds_every_method() {
-        let p = Rosen(vec![FREE; 2]);
+        let p = Rosen::free();
         let limits = Limits {
             max_eval: 4,
             ..Limits::default()

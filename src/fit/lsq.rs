@@ -778,11 +778,20 @@ pub fn nelder_mead<P: Problem>(p: &P, x0: &[f64], robust: Robust, limits: &Limit
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    /// Rosenbrock as least squares: r1 = 10(x2 − x1²), r2 = 1 − x1.
-    struct Rosen;
+    /// Rosenbrock as least squares, r1 = 10(x2 − x1²), r2 = 1 − x1, in a box (none:
+    /// [`Rosen::free`]); also used by the argmin wrapper's tests.
+    pub(crate) struct Rosen(pub Vec<(f64, f64)>);
+
+    impl Rosen {
+        /// No bounds.
+        pub(crate) fn free() -> Self {
+            Rosen(vec![(f64::NEG_INFINITY, f64::INFINITY); 2])
+        }
+    }
+
     impl Problem for Rosen {
         type Prepared = Vec<f64>;
         fn dim(&self) -> usize {
@@ -805,12 +814,21 @@ mod tests {
                 1.0 - x[0]
             }
         }
+        fn bounds(&self) -> Vec<(f64, f64)> {
+            self.0.clone()
+        }
     }
 
     #[test]
     fn all_methods_solve_rosenbrock() {
         for m in [Method::Lm, Method::GaussNewton, Method::NelderMead] {
-            let s = solve(&Rosen, &[-1.2, 1.0], m, Robust::None, &Limits::default());
+            let s = solve(
+                &Rosen::free(),
+                &[-1.2, 1.0],
+                m,
+                Robust::None,
+                &Limits::default(),
+            );
             assert!(
                 (s.x[0] - 1.0).abs() < 1e-6 && (s.x[1] - 1.0).abs() < 1e-6,
                 "{m:?}: {s:?}"
