@@ -522,6 +522,10 @@ impl Chart for LobeChart {
             chart
                 .configure_mesh()
                 .disable_mesh()
+                // Ticks at half radii only (±1, ±½, 0; 0, ½, 1), on the rings: the values of a
+                // log radius are long, and at every fifth of the radius they ran together.
+                .x_labels(5)
+                .y_labels(3)
                 .x_label_formatter(&|v| label(*v))
                 .y_label_formatter(&|v| label(*v))
                 .x_desc("relative to the normal (mirror side ←, light side →)")

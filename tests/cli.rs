@@ -865,3 +865,41 @@ fn single_channel_has_one_name() {
     assert_eq!(v["channel"], "brdf");
     assert!(!out.contains("(single)") && !out.contains("channel value"));
 }
+
+/// A fit file of many channels (cayman, 31 wavelengths) draws one lobe, the data's channel,
+/// and says so; the legend no longer lists 31 fits over the plot.
+#[test]
+fn lobe_of_a_many_channel_fit_draws_the_data_channel() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("cay.json");
+    let o = brdfit(&[
+        "fit",
+        "data/cayman.astm",
+        "-q",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let base = dir.path().join("lobe");
+    let o = brdfit(&[
+        "plot",
+        "lobe",
+        "--fit",
+        json.to_str().unwrap(),
+        "--data",
+        "data/cayman.astm",
+        "--channel",
+        "550nm",
+        "-o",
+        base.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("holds fits of 31 channels; drawing the one of channel 550nm"),
+        "{err}"
+    );
+    let svg = std::fs::read_to_string(base.with_extension("svg")).unwrap();
+    assert!(svg.contains("fit (550nm)"));
+    assert!(!svg.contains("fit (400nm)") && !svg.contains("fit (560nm)"));
+}

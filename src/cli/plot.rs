@@ -132,14 +132,41 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                     bail!("unknown quantity '{quantity}'\n  fix: use --quantity intensity or brdf")
                 }
             };
+            let ds = data.as_ref().map(|d| load.load(d)).transpose()?;
+            // The plotted channel: the data's first (after --channel), whose fit is drawn from
+            // a fit file of several channels (else that file's first).
+            let plotted = ds.as_ref().map(|d| d.channels[0].name.clone());
             let mut models = Vec::new();
             for f in &fit {
-                for r in read_fits(f)? {
+                let fits = read_fits(f)?;
+                let several = fits.len() > 1;
+                let pick = fits
+                    .iter()
+                    .position(|r| Some(&r.channel) == plotted.as_ref())
+                    .unwrap_or(0);
+                for (k, r) in fits.iter().enumerate() {
+                    if several && k != pick {
+                        continue;
+                    }
                     let channel = match r.channel.as_str() {
                         "" | "value" | "brdf" | "brdf_cos" | "rfactor" => String::new(),
                         c => format!(" ({c})"),
                     };
                     models.push((format!("{} fit{channel}", r.label()), r.model_for(0)));
+                }
+                if several && !quiet() {
+                    eprintln!(
+                        "note: {} holds fits of {} channels; drawing the one of channel {} ({}); \
+                         choose another with --channel",
+                        f.display(),
+                        fits.len(),
+                        fits[pick].channel,
+                        if plotted.as_ref() == Some(&fits[pick].channel) {
+                            "the data's channel"
+                        } else {
+                            "the file's first"
+                        }
+                    );
                 }
             }
             if let Some(m) = model.build()? {
@@ -150,7 +177,6 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                     "nothing to plot\n  fix: give --fit FILE, --model with --set, or --data FILE"
                 );
             }
-            let ds = data.as_ref().map(|d| load.load(d)).transpose()?;
             let title = match &data {
                 Some(d) => format!("Reflection in the plane of incidence: {}", d.display()),
                 None => "Reflection in the plane of incidence".to_string(),
