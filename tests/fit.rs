@@ -816,3 +816,34 @@ fn an_argmin_step_out_of_the_box_is_reported() {
         .remove(0);
     assert!(f.cost > lm.cost * 1.01, "{} vs {}", f.cost, lm.cost);
 }
+
+/// With a robust loss the certificate's best cost is in that loss (Σ ρ(r), here below the
+/// declared ½ Σ r² of `cost`), and says so in the JSON and the printed fit.
+#[test]
+fn a_robust_certificate_names_its_loss() {
+    let mut o = ts();
+    o.robust = Some(fit::RobustKind::Huber);
+    o.verify = 4;
+    let f = fit::fit(&load("data/blinn-mgo.csv"), &o).unwrap().remove(0);
+    let v = f.verification.as_ref().unwrap();
+    assert_eq!(v.robust, "huber");
+    // Huber's ρ(r) ≤ ½ r², so the robust minimum lies below the declared cost.
+    assert!(v.best_cost <= f.cost, "{} vs {}", v.best_cost, f.cost);
+    let json = serde_json::to_value(&f).unwrap();
+    assert_eq!(json["verify_loss"], "huber");
+    let back: FitResult = serde_json::from_value(json).unwrap();
+    assert_eq!(back.verification.unwrap().robust, "huber");
+    let plain = fit::fit(&load("data/blinn-mgo.csv"), &{
+        let mut o = ts();
+        o.verify = 2;
+        o
+    })
+    .unwrap()
+    .remove(0);
+    assert!(
+        serde_json::to_value(&plain)
+            .unwrap()
+            .get("verify_loss")
+            .is_none()
+    );
+}

@@ -136,9 +136,17 @@ pub struct Verification {
     /// Number of random starts.
     #[serde(rename = "verify_starts")]
     pub starts: usize,
-    /// The lowest cost any of them reached (on every sample).
+    /// The lowest cost any of them reached (on every sample), in the loss the fit minimised:
+    /// with a robust loss Σ ρ(r), not the declared ½ Σ r² of `cost`.
     #[serde(rename = "verify_best_cost")]
     pub best_cost: f64,
+    /// The robust loss `best_cost` is measured in (`huber`, `cauchy`), or empty.
+    #[serde(
+        rename = "verify_loss",
+        default,
+        skip_serializing_if = "String::is_empty"
+    )]
+    pub robust: String,
     /// True when none ended lower than the fit (by more than 1e-6 relative).
     pub verified: bool,
 }
@@ -372,6 +380,11 @@ impl FitResult {
                 Verification {
                     starts: f("verify_starts") as usize,
                     best_cost: f("verify_best_cost"),
+                    robust: v
+                        .get("verify_loss")
+                        .and_then(|x| x.as_str())
+                        .unwrap_or("")
+                        .to_string(),
                     verified,
                 }
             }),
@@ -1197,6 +1210,11 @@ fn verify(
         Verification {
             starts: opts.verify,
             best_cost,
+            robust: match robust {
+                Robust::None => String::new(),
+                Robust::Huber(_) => "huber".into(),
+                Robust::Cauchy(_) => "cauchy".into(),
+            },
             verified: !(best_cost < cost * (1.0 - SAME_MINIMUM)),
         },
         evaluations,
@@ -2145,9 +2163,17 @@ pub fn format_fit(f: &FitResult) -> String {
     if let Some(v) = &f.verification {
         let _ = writeln!(
             s,
-            "  verification: {} random starts, best cost {:.6e}: {}",
+            "  verification: {} random starts, best cost {:.6e}{}: {}",
             v.starts,
             v.best_cost,
+            if v.robust.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    " (of the {} loss the fit minimised, not the cost above)",
+                    v.robust
+                )
+            },
             if v.verified {
                 "none ended lower"
             } else {
