@@ -1,10 +1,11 @@
 //! Torrance–Sparrow fits of synthetic Blinn MgO data (hemisphere, 1 % noise, log loss) at
-//! 10k, 100k and 1M samples (the 1M fit also without the range profiling).
+//! 10k, 100k and 1M samples (the 1M fit also without the range profiling); and every method,
+//! brdfit's and argmin's, on the same 10k and 100k inputs (no profiling), side by side.
 //!
 //! Run: `cargo bench --bench fit`. The side-by-side comparison with scipy is
 //! `benches/compare_scipy.sh`.
 
-use brdfit::fit::{self, FitOptions};
+use brdfit::fit::{self, FitOptions, Method};
 use brdfit::model::{Model, ModelKind};
 use brdfit::simulate::{Grid, simulate};
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -37,5 +38,29 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// brdfit's methods against argmin's on the same problem: the whole pipeline (global
+/// initialisation, subsample, every sample) with each as the local method.
+fn methods(c: &mut Criterion) {
+    let mut g = c.benchmark_group("fit_ts_mgo_methods");
+    g.sample_size(10).measurement_time(Duration::from_secs(3));
+    for n in [10_000usize, 100_000] {
+        let ds = simulate(
+            &Model::blinn_mgo(),
+            &Grid::Hemisphere(n).directions(1),
+            0.01,
+            1,
+        );
+        for m in Method::ALL {
+            let mut o = FitOptions::new(ModelKind::TorranceSparrow);
+            o.method = m;
+            o.profile = false;
+            g.bench_function(format!("{}/{n}", m.name()), |b| {
+                b.iter(|| fit::fit(&ds, &o).unwrap())
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench, methods);
 criterion_main!(benches);
