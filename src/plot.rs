@@ -722,11 +722,14 @@ fn cell_quadrature(samples: &[(f64, f64, f64)], shift: f64) -> Option<f64> {
     for &(u, dphi, v) in samples {
         let fine = ((u * (rings * SUB) as f64) as usize).min(rings * SUB - 1);
         let (ring, sub) = (fine / SUB, fine % SUB);
-        for phi in [dphi, 2.0 * PI - dphi] {
-            // At Δφ = 0 or π the two are one direction: count it once.
-            if phi == 2.0 * PI - dphi && (dphi == 0.0 || dphi == PI) {
-                continue;
-            }
+        // At Δφ = 0 or π the two are one direction: count it once.
+        let both = [dphi, 2.0 * PI - dphi];
+        let phis = if dphi == 0.0 || dphi == PI {
+            &both[..1]
+        } else {
+            &both[..]
+        };
+        for &phi in phis {
             let sector = ((phi / width + shift).floor() as usize) % sectors;
             let cell = ring * sectors + sector;
             sum[cell * SUB + sub] += v;

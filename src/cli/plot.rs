@@ -139,22 +139,18 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
             let mut models = Vec::new();
             for f in &fit {
                 let fits = read_fits(f)?;
-                let several = fits.len() > 1;
                 let pick = fits
                     .iter()
                     .position(|r| Some(&r.channel) == plotted.as_ref())
                     .unwrap_or(0);
-                for (k, r) in fits.iter().enumerate() {
-                    if several && k != pick {
-                        continue;
-                    }
+                if let Some(r) = fits.get(pick) {
                     let channel = match r.channel.as_str() {
                         "" | "value" | "brdf" | "brdf_cos" | "rfactor" => String::new(),
                         c => format!(" ({c})"),
                     };
                     models.push((format!("{} fit{channel}", r.label()), r.model_for(0)));
                 }
-                if several && !quiet() {
+                if fits.len() > 1 && !quiet() {
                     eprintln!(
                         "note: {} holds fits of {} channels; drawing the one of channel {} ({}); \
                          choose another with --channel",

@@ -18,7 +18,9 @@
 //! evaluation limits as brdfit's methods; where they stall, leave the box or run to a limit,
 //! the result says so. The best point any evaluation saw is returned.
 
-use super::lsq::{Limits, Method, Normal, Problem, Robust, Solution, cost, normal_equations};
+use super::lsq::{
+    Limits, Method, Normal, Problem, Robust, Solution, cost, normal_equations, project,
+};
 use argmin::core::observers::{Observe, ObserverMode};
 use argmin::core::{
     CostFunction, Error, Executor, Gradient, Hessian, Jacobian, KV, Operator, State,
@@ -280,11 +282,8 @@ pub(super) fn solve<P: Problem>(
     limits: &Limits,
 ) -> Solution {
     let bounds = p.bounds();
-    let start: Vec<f64> = x0
-        .iter()
-        .zip(&bounds)
-        .map(|(v, (lo, hi))| v.clamp(*lo, *hi))
-        .collect();
+    let mut start = x0.to_vec();
+    project(&mut start, &bounds);
     let track = RefCell::new(Track::default());
     let peer = Peer {
         p,
@@ -294,38 +293,33 @@ pub(super) fn solve<P: Problem>(
         track: &track,
     };
     let iterations = Arc::new(AtomicUsize::new(0));
-    let observer = || (Iterations(iterations.clone()), ObserverMode::Always);
     let x = DVector::from_vec(start.clone());
     let max_iters = limits.max_iter as u64;
-    let reason = |s: &TerminationStatus| match s {
-        TerminationStatus::Terminated(r) => r.clone(),
-        TerminationStatus::NotTerminated => TerminationReason::SolverExit("not terminated".into()),
-    };
+    // Run one argmin solver on the wrapper, `$configure` setting its start, and return why it
+    // ended (a macro: each solver's state has its own type).
+    macro_rules! run {
+        ($solver:expr, $configure:expr) => {
+            Executor::new(peer, $solver)
+                .configure($configure)
+                .add_observer(Iterations(iterations.clone()), ObserverMode::Always)
+                .run()
+                .map(|r| match r.state().get_termination_status() {
+                    TerminationStatus::Terminated(r) => r.clone(),
+                    TerminationStatus::NotTerminated => {
+                        TerminationReason::SolverExit("not terminated".into())
+                    }
+                })
+        };
+    }
     let ended: Result<TerminationReason, Error> = match method {
-        Method::ArgminLbfgs => {
-            let (obs, mode) = observer();
-            Executor::new(peer, LBFGS::new(MoreThuenteLineSearch::new(), LBFGS_MEMORY))
-                .configure(|s| s.param(x).max_iters(max_iters))
-                .add_observer(obs, mode)
-                .run()
-                .map(|r| reason(r.state().get_termination_status()))
-        }
-        Method::ArgminTrustRegion => {
-            let (obs, mode) = observer();
-            Executor::new(peer, TrustRegion::new(Steihaug::new()))
-                .configure(|s| s.param(x).max_iters(max_iters))
-                .add_observer(obs, mode)
-                .run()
-                .map(|r| reason(r.state().get_termination_status()))
-        }
-        Method::ArgminGaussNewton => {
-            let (obs, mode) = observer();
-            Executor::new(peer, GaussNewton::new())
-                .configure(|s| s.param(x).max_iters(max_iters))
-                .add_observer(obs, mode)
-                .run()
-                .map(|r| reason(r.state().get_termination_status()))
-        }
+        Method::ArgminLbfgs => run!(
+            LBFGS::new(MoreThuenteLineSearch::new(), LBFGS_MEMORY),
+            |s| s.param(x).max_iters(max_iters)
+        ),
+        Method::ArgminTrustRegion => run!(TrustRegion::new(Steihaug::new()), |s| s
+            .param(x)
+            .max_iters(max_iters)),
+        Method::ArgminGaussNewton => run!(GaussNewton::new(), |s| s.param(x).max_iters(max_iters)),
         Method::ArgminNm => {
             // The initial simplex: x0 and x0 + δ_i e_i, δ_i = 5 % of |x0_i| (0.00025 at 0),
             // as scipy's fmin builds it, turned inward where it would leave the box.
@@ -344,12 +338,7 @@ pub(super) fn solve<P: Problem>(
                 };
                 simplex.push(v);
             }
-            let (obs, mode) = observer();
-            Executor::new(peer, NelderMead::new(simplex))
-                .configure(|s| s.max_iters(max_iters))
-                .add_observer(obs, mode)
-                .run()
-                .map(|r| reason(r.state().get_termination_status()))
+            run!(NelderMead::new(simplex), |s| s.max_iters(max_iters))
         }
         Method::ArgminPso => {
             // The swarm from argmin's own initialisation (positions uniform in the box,
@@ -357,34 +346,24 @@ pub(super) fn solve<P: Problem>(
             let (lo, hi) = swarm_box(&start, &bounds);
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed_of(&start));
             let delta = &hi - &lo;
-            let mut particles = Vec::with_capacity(SWARM);
-            let mut swarm_error = None;
-            for k in 0..SWARM {
-                let pos = if k == 0 {
-                    x.clone()
-                } else {
-                    DVector::rand_from_range(&lo, &hi, &mut rng)
-                };
-                let vel = DVector::rand_from_range(&-&delta, &delta, &mut rng);
-                match peer.cost(&pos) {
-                    Ok(c) => particles.push(Particle::new(pos, c, vel)),
-                    Err(e) => {
-                        swarm_error = Some(e);
-                        break;
-                    }
-                }
-            }
-            match swarm_error {
-                Some(e) => Err(e),
-                None => {
-                    let (obs, mode) = observer();
-                    let solver = ParticleSwarm::new((lo, hi), SWARM).with_rng_generator(rng);
-                    Executor::new(peer, solver)
-                        .configure(|s| s.population(particles).max_iters(max_iters))
-                        .add_observer(obs, mode)
-                        .run()
-                        .map(|r| reason(r.state().get_termination_status()))
-                }
+            let particles: Result<Vec<_>, Error> = (0..SWARM)
+                .map(|k| {
+                    let pos = if k == 0 {
+                        x.clone()
+                    } else {
+                        DVector::rand_from_range(&lo, &hi, &mut rng)
+                    };
+                    let vel = DVector::rand_from_range(&-&delta, &delta, &mut rng);
+                    let cost = peer.cost(&pos)?;
+                    Ok(Particle::new(pos, cost, vel))
+                })
+                .collect();
+            match particles {
+                Err(e) => Err(e),
+                Ok(particles) => run!(
+                    ParticleSwarm::new((lo, hi), SWARM).with_rng_generator(rng),
+                    |s| s.population(particles).max_iters(max_iters)
+                ),
             }
         }
         Method::Lm | Method::GaussNewton | Method::NelderMead => {

@@ -401,7 +401,8 @@ pub fn active_set(x: &[f64], g: &[f64], bounds: &[(f64, f64)]) -> Vec<bool> {
         .collect()
 }
 
-fn project(x: &mut [f64], bounds: &[(f64, f64)]) {
+/// Clamp `x` onto the box.
+pub(crate) fn project(x: &mut [f64], bounds: &[(f64, f64)]) {
     for (v, (lo, hi)) in x.iter_mut().zip(bounds) {
         *v = v.clamp(*lo, *hi);
     }
