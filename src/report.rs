@@ -171,6 +171,10 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
         toc.push((name.clone(), name.clone()));
         doc.h(2, &format!("{name} ({})", file.display()), &name);
         doc.pre(&data::summary(&full));
+        for w in &full.meta.warnings {
+            eprintln!("warning: {w}");
+            doc.p(&format!("Warning: {w}"));
+        }
         doc.p(&format!("Fits use {channel_note}."));
         let set = DataSet {
             name: name.clone(),

@@ -148,6 +148,51 @@ fn bad_csv_inputs_name_file_line_and_fix() {
     assert!(String::from_utf8_lossy(&ok.stdout).contains("negatives:   1 (clamped to 0)"));
 }
 
+/// Radians under `_deg` headers (issue 24, point 4): Blinn's MgO samples rewritten with their
+/// angles in radians but the columns still named `_deg` get a warning that names the mix-up and
+/// the fix, from `info`, `fit` and the report's loader; `--trust-units` silences it; the real
+/// file (degrees, θ up to 80°) and the same values under `_rad` get none.
+#[test]
+fn radians_under_degree_headers_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let ds = common::load("data/blinn-mgo.csv");
+    let mut deg = String::from(H);
+    let mut rad = String::from("theta_i_rad,phi_i_rad,theta_o_rad,phi_o_rad,brdf\n");
+    for k in 0..ds.len() {
+        let row = format!(
+            "{},{},{},{},{}\n",
+            ds.theta_i[k], ds.phi_i[k], ds.theta_o[k], ds.phi_o[k], ds.channels[0].values[k]
+        );
+        deg.push_str(&row);
+        rad.push_str(&row);
+    }
+    let mixed = write(dir.path(), "mixed.csv", deg.as_bytes());
+    let honest = write(dir.path(), "honest.csv", rad.as_bytes());
+    for cmd in ["info", "fit"] {
+        let out = brdfit(&[cmd, mixed.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{cmd}: {err}");
+        for f in [
+            "mixed.csv",
+            "look like radians",
+            "theta_i_rad",
+            "--trust-units",
+        ] {
+            assert!(err.contains(f), "{cmd}: stderr lacks '{f}':\n{err}");
+        }
+        let out = brdfit(&[cmd, "--trust-units", mixed.to_str().unwrap()]);
+        assert!(!String::from_utf8_lossy(&out.stderr).contains("radians"));
+        for quiet in [honest.to_str().unwrap(), "data/blinn-mgo.csv"] {
+            let out = brdfit(&[cmd, quiet]);
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert!(
+                out.status.success() && !err.contains("radians"),
+                "{quiet}: {err}"
+            );
+        }
+    }
+}
+
 #[test]
 fn bad_files_of_other_kinds() {
     let dir = tempfile::tempdir().unwrap();

@@ -111,6 +111,10 @@ pub(crate) struct LoadArgs {
     /// interpolated) or cie-y (CIE 1931 luminance of spectral data).
     #[arg(long)]
     pub(crate) channel: Option<String>,
+    /// Take the angle columns' declared units as they are: silences the warning for a `_deg`
+    /// file whose every θ lies within [0, π/2] and φ within [−2π, 2π] (radians under `_deg`).
+    #[arg(long)]
+    pub(crate) trust_units: bool,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -160,6 +164,11 @@ impl LoadArgs {
     pub(crate) fn load(&self, path: &Path) -> Result<Dataset> {
         let (format, negative) = (self.format, self.negative);
         let ds = data::load(path, &LoadOptions { format, negative })?;
+        if !self.trust_units {
+            for w in &ds.meta.warnings {
+                eprintln!("warning: {w}");
+            }
+        }
         match &self.channel {
             None => Ok(ds),
             Some(c) => ds.select(&ChannelSelect::parse(c)).map_err(|m| {

@@ -146,7 +146,37 @@ pub(crate) fn load_csv(
         }
         sink.push(line, angles, &vals, weight)?;
     }
-    sink.finish()
+    let mut ds = sink.finish()?;
+    let degrees = cols
+        .iter()
+        .any(|c| matches!(c, Col::Angle(_, f) if *f != 1.0));
+    if degrees && let Some(w) = degrees_look_like_radians(&ds) {
+        ds.meta.warnings.push(format!("{}: {w}", path.display()));
+    }
+    Ok(ds)
+}
+
+/// A file that declares degrees but whose every θ lies within [0, π/2] and every φ within
+/// [−2π, 2π] (as read in degrees) most likely holds radians: the mix-up in words, or `None`.
+/// Needs at least 2 samples and some θ above 0.2° (a near-normal-only set is left alone).
+pub(crate) fn degrees_look_like_radians(ds: &Dataset) -> Option<String> {
+    use std::f64::consts::{FRAC_PI_2, PI};
+    if ds.len() < 2 {
+        return None;
+    }
+    // Angles are stored in radians: a value v read in degrees is v·π/180.
+    let max_of = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let theta = max_of(&ds.theta_i).max(max_of(&ds.theta_o)).to_degrees();
+    let phi = max_of(&ds.phi_i).max(max_of(&ds.phi_o)).to_degrees();
+    let tol = 1e-6;
+    (theta > 0.2 && theta <= FRAC_PI_2 + tol && phi <= 2.0 * PI + tol).then(|| {
+        format!(
+            "the angle columns say degrees (_deg), but every θ lies within 0…{theta:.4}° and every \
+             φ within ±{phi:.4}°: these look like radians\n  fix: rename the columns to \
+             theta_i_rad, phi_i_rad, theta_o_rad, phi_o_rad; or, if they really are degrees, pass \
+             --trust-units"
+        )
+    })
 }
 
 /// What a header declares: each column's role, the value channels (name, wavelength) and

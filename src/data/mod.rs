@@ -190,6 +190,9 @@ pub struct Metadata {
     pub material: Option<String>,
     /// Comment and header lines kept from the file.
     pub comments: Vec<String>,
+    /// What looked wrong while loading but was not an error (e.g. degree columns holding
+    /// radians), each naming the file and the fix.
+    pub warnings: Vec<String>,
 }
 
 /// Reflectance samples, struct-of-arrays, angles in radians.
