@@ -42,6 +42,7 @@ pub(crate) mod lanes;
 pub mod model;
 // Public for the binary and the integration tests (separate crates), not library API.
 #[doc(hidden)]
+pub mod input;
 pub mod output;
 pub mod plot;
 pub mod render;

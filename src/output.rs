@@ -45,9 +45,60 @@ pub fn take_created() -> Vec<PathBuf> {
         .unwrap_or_default()
 }
 
+/// Removes the temporary file when dropped unless it was renamed into place: on an error,
+/// and also when the writer panics.
+struct TempGuard<'a> {
+    path: &'a Path,
+    renamed: bool,
+}
+
+impl Drop for TempGuard<'_> {
+    fn drop(&mut self) {
+        if !self.renamed {
+            let _ = std::fs::remove_file(self.path);
+        }
+    }
+}
+
+/// Remove temporary files of `path` left by processes that are no longer running
+/// (`.NAME.brdfit-tmp-PID`, where no process PID exists: a run that was killed while writing).
+/// Only where `/proc` lists the running processes; elsewhere nothing is removed.
+pub fn remove_stale_temps(path: &Path) {
+    let (Some(name), Some(dir)) = (path.file_name(), path.parent()) else {
+        return;
+    };
+    let proc_ = Path::new("/proc");
+    if !proc_.join("self").exists() {
+        return;
+    }
+    let prefix = format!(".{}.brdfit-tmp-", name.to_string_lossy());
+    let dir = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let n = e.file_name();
+        let Some(pid) = n
+            .to_str()
+            .and_then(|n| n.strip_prefix(&prefix))
+            .and_then(|p| p.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        if pid != std::process::id() && !proc_.join(pid.to_string()).exists() {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
+}
+
 /// Write `path` atomically: `write` fills a temporary file beside it, which is renamed over
-/// `path` only when `write` succeeded; otherwise the temporary file is removed. A missing
-/// parent folder is created ([`create_dir`]).
+/// `path` only when `write` succeeded; otherwise (an error or a panic) the temporary file is
+/// removed. Stale temporary files of `path` from killed runs are removed first
+/// ([`remove_stale_temps`]). A missing parent folder is created ([`create_dir`]).
 pub fn write_atomic<F>(path: &Path, write: F) -> io::Result<()>
 where
     F: FnOnce(&mut dyn Write) -> io::Result<()>,
@@ -55,20 +106,21 @@ where
     if let Some(dir) = path.parent() {
         create_dir(dir)?;
     }
+    remove_stale_temps(path);
     let tmp = temp_name(path);
-    let result = (|| {
-        let file = std::fs::File::create(&tmp)?;
-        let mut w = BufWriter::with_capacity(1 << 16, file);
-        write(&mut w)?;
-        let file = w.into_inner().map_err(|e| e.into_error())?;
-        file.sync_all()?;
-        drop(file);
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    let mut guard = TempGuard {
+        path: &tmp,
+        renamed: false,
+    };
+    let file = std::fs::File::create(&tmp)?;
+    let mut w = BufWriter::with_capacity(1 << 16, file);
+    write(&mut w)?;
+    let file = w.into_inner().map_err(|e| e.into_error())?;
+    file.sync_all()?;
+    drop(file);
+    std::fs::rename(&tmp, path)?;
+    guard.renamed = true;
+    Ok(())
 }
 
 /// [`write_atomic`] for a byte buffer.
@@ -92,6 +144,38 @@ mod tests {
         assert!(!p.exists());
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
         write_bytes_atomic(&p, b"ok").unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"ok");
+    }
+
+    #[test]
+    fn a_panicking_writer_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("out.csv");
+        let r = std::panic::catch_unwind(|| {
+            let _ = write_atomic(&p, |w| {
+                w.write_all(b"partial")?;
+                panic!("injected");
+            });
+        });
+        assert!(r.is_err());
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+
+    #[test]
+    fn stale_temporary_files_of_dead_processes_are_removed() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("out.csv");
+        // A process id above the kernel's largest (pid_max ≤ 2^22) was never running.
+        let dead = dir.path().join(".out.csv.brdfit-tmp-4999999");
+        // Process 1 is always running: its file stays; so does another output's.
+        let alive = dir.path().join(".out.csv.brdfit-tmp-1");
+        let other = dir.path().join(".other.csv.brdfit-tmp-4999999");
+        for f in [&dead, &alive, &other] {
+            std::fs::write(f, b"left over").unwrap();
+        }
+        write_bytes_atomic(&p, b"ok").unwrap();
+        assert!(!dead.exists());
+        assert!(alive.exists() && other.exists());
         assert_eq!(std::fs::read(&p).unwrap(), b"ok");
     }
 }

@@ -591,7 +591,7 @@ fn block_sizes_other_than_1_2_4_are_refused_with_the_fix() {
     };
     let msg = format!("{err:#}");
     assert!(
-        msg.contains("block = 3") && msg.contains("use 1, 2 or 4"),
+        msg.contains("`antialias.block` = 3") && msg.contains("use 1, 2 or 4"),
         "{msg}"
     );
     assert!(parse_scene(GRADIENT, Path::new(".")).is_ok());

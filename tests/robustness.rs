@@ -351,7 +351,7 @@ fn named_renderer_cases() {
     assert!(img.pixels.iter().all(|p| (p[0] - 0.1).abs() < 1e-6));
     // Zero resolution and a degenerate camera are errors.
     let e = parse_scene(&base("[camera]\neye = [0.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 30.0\nwidth = 0\nheight = 9"), Path::new(".")).unwrap_err();
-    assert!(e.to_string().contains("resolution"), "{e}");
+    assert!(e.to_string().contains("`camera.width` = 0"), "{e}");
     let e = parse_scene(&base("[camera]\neye = [0.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 5.0]\nfov = 30.0\nwidth = 9\nheight = 9"), Path::new(".")).unwrap_err();
     assert!(e.to_string().contains("camera"), "{e}");
     // Unknown material, unknown keys.

@@ -12,7 +12,8 @@ pub(crate) struct ChooseArgs {
     /// green channel of RGB data, CIE Y of spectral data, or --channel).
     pub(crate) data: PathBuf,
     /// `fig7` for Blinn's Figure 7 lighting cases (front lit, edge lit), or a scene TOML whose
-    /// first material is the test object.
+    /// test object is the material named by its `test_object` key, else its first material in
+    /// file order.
     #[arg(long, default_value = "fig7")]
     pub(crate) scene: String,
     /// METRIC=VALUE: the largest error a chosen model may have; METRIC is one of flip_mean,
@@ -28,6 +29,9 @@ pub(crate) struct ChooseArgs {
     /// Random starts that must not beat each fit (0 = none).
     #[arg(long, default_value_t = 4)]
     pub(crate) verify: usize,
+    /// Accept a scene image larger than 8192 on a side or 16 M pixels.
+    #[arg(long)]
+    pub(crate) allow_large_image: bool,
     #[command(flatten)]
     pub(crate) load: LoadArgs,
 }
@@ -70,8 +74,35 @@ pub(crate) fn run_choose(a: ChooseArgs) -> Result<()> {
         let scene = brdfit::render::scene::load_scene(path)?;
         if scene.materials.is_empty() {
             bail!(
-                "{}: the scene has no material\n  fix: give it a [[material]] for the test object",
+                "{}: the scene has no material\n  fix: give it a [materials.NAME] for the test object",
                 path.display()
+            );
+        }
+        brdfit::render::check_image_size(
+            scene.camera.width,
+            scene.camera.height,
+            a.allow_large_image,
+        )
+        .map_err(|e| anyhow!("{}: camera: {e}", path.display()))?;
+        let test = &scene.materials[0].name;
+        let (lit, mask) = scene.lit_configurations(0);
+        if lit.is_empty() {
+            let seen = mask.iter().filter(|&&m| m).count();
+            bail!(
+                "{}: the test object (material {test}) has no lit pixel: {}, so every model would score the same\n  fix: {}",
+                path.display(),
+                if seen == 0 {
+                    "the camera sees no object of that material".to_string()
+                } else {
+                    format!(
+                        "the camera sees {seen} pixels of it, but no light reaches them from above the surface"
+                    )
+                },
+                if seen == 0 {
+                    "aim the camera at the test object, or name the test object with test_object = \"NAME\""
+                } else {
+                    "move a light so it shines on the side the camera sees (a light inside a closed object reaches nothing)"
+                }
             );
         }
         let name = path

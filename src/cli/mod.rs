@@ -40,6 +40,10 @@ pub(crate) struct Cli {
     /// More detail on stderr (timings).
     #[arg(long, short, global = true)]
     pub(crate) verbose: bool,
+    /// Size limit of every input file in MB (default: 256 for data files, 16 for fit JSON,
+    /// 1 for scene files, 64 for OBJ meshes).
+    #[arg(long, global = true, value_name = "MB", value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    pub(crate) max_input_mb: Option<u64>,
 }
 
 pub(crate) static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
@@ -202,6 +206,10 @@ pub(crate) enum Command {
         /// fig7: image resolution (square).
         #[arg(long, default_value_t = 512)]
         res: u32,
+        /// Render an image larger than 8192 on a side or 16 M pixels (memory: about 35 bytes a
+        /// pixel).
+        #[arg(long)]
+        allow_large_image: bool,
     },
     /// Export a fit to another renderer or format: mitsuba, pbrt, brdf-explorer, merl, csv.
     #[command(
@@ -267,12 +275,13 @@ pub(crate) fn run(cli: Cli) -> Result<()> {
             aluminium,
             mgo,
             res,
+            allow_large_image,
         } => run_render(
             &scene,
             &output,
             aluminium.as_deref(),
             mgo.as_deref(),
-            res,
+            (res, allow_large_image),
             quiet(),
         ),
         Command::Choose(args) => run_choose(args),
@@ -297,6 +306,7 @@ pub(crate) fn main() -> ExitCode {
         Ok(c) => {
             QUIET.store(c.quiet, std::sync::atomic::Ordering::Relaxed);
             VERBOSE.store(c.verbose && !c.quiet, std::sync::atomic::Ordering::Relaxed);
+            brdfit::input::set_max_input_bytes(c.max_input_mb.map(|mb| mb << 20));
             c
         }
         Err(e) => {
@@ -352,5 +362,6 @@ pub(crate) fn flag(s: &brdfit::setting::Setting) -> String {
         Setting::Start => "--start NAME=VALUE,…".into(),
         Setting::Value(p) => format!("--set {p}=VALUE"),
         Setting::MaxTheta => "--max-theta DEG, --negative, or --fix NAME=VALUE".into(),
+        Setting::MaxInputSize => "--max-input-mb N (a limit for every input file)".into(),
     }
 }

@@ -1,7 +1,7 @@
 //! `brdfit render`: scene files and Blinn's Figure 7 through the library's renderer.
 
 use super::*;
-use anyhow::{Result, bail};
+use anyhow::{Result, anyhow, bail};
 use brdfit::model::{Model, ModelKind};
 use std::path::Path;
 
@@ -27,16 +27,22 @@ pub(crate) fn run_render(
     output: &Path,
     al: Option<&Path>,
     mgo: Option<&Path>,
-    res: u32,
+    (res, allow_large): (u32, bool),
     quiet: bool,
 ) -> Result<()> {
     use brdfit::render;
-    if !(1..=8192).contains(&res) {
-        bail!("--res {res} is out of range\n  fix: give a resolution between 1 and 8192");
+    if !(1..=16384).contains(&res) {
+        bail!("--res {res} is out of range\n  fix: give a resolution between 1 and 16384");
     }
     if scene == "fig7" {
+        render::check_image_size(res, res, allow_large).map_err(|e| anyhow!("--res {res}: {e}"))?;
         let al = ts_model_from(al, Model::blinn_aluminium())?;
         let mgo = ts_model_from(mgo, Model::blinn_mgo())?;
+        for (m, flag) in [(&al, "--aluminium"), (&mgo, "--mgo")] {
+            render::scene::fig7_scene(*m, render::scene::Lighting::Front, res)
+                .check_inputs()
+                .map_err(|e| anyhow!("{flag}: {e}"))?;
+        }
         let t = std::time::Instant::now();
         let imgs = render::fig7_images(
             &al,
@@ -62,6 +68,8 @@ pub(crate) fn run_render(
         return Ok(());
     }
     let s = render::scene::load_scene(Path::new(scene))?;
+    render::check_image_size(s.camera.width, s.camera.height, allow_large)
+        .map_err(|e| anyhow!("{scene}: camera: {e}"))?;
     let bar = if quiet {
         indicatif::ProgressBar::hidden()
     } else {

@@ -293,7 +293,7 @@ fn parse_header(
 /// how many lines they took.
 fn leading_comments(
     path: &Path,
-    reader: &mut BufReader<std::fs::File>,
+    reader: &mut BufReader<crate::input::Limited<std::fs::File>>,
 ) -> Result<(Vec<String>, u64), DataError> {
     let mut comments = Vec::new();
     let mut offset: u64 = 0;

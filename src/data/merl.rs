@@ -110,7 +110,7 @@ fn err(path: &Path, msg: impl Into<String>, fix: &str) -> DataError {
 /// above the surface and which holds a value in at least one channel.
 pub fn load_merl(path: &Path) -> Result<Dataset, DataError> {
     let mut f = open(path)?;
-    let len = f.metadata().map_err(|e| io_error(path, &e))?.len();
+    let len = f.file().metadata().map_err(|e| io_error(path, &e))?.len();
     let mut head = [0u8; 12];
     if len < 12 {
         return Err(err(

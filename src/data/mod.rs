@@ -761,22 +761,20 @@ pub fn detect_format(path: &Path, head: &[u8]) -> Result<Format, DataError> {
     .with_setting(crate::setting::Setting::Format))
 }
 
-/// Open `path` for reading with errors that say what to do.
-pub(crate) fn open(path: &Path) -> Result<std::fs::File, DataError> {
-    let meta = std::fs::metadata(path).map_err(|e| io_error(path, &e))?;
-    if meta.is_dir() {
-        return Err(DataError::new(
-            path,
-            None,
-            "is a directory",
-            "give the path of a data file inside it",
-        ));
-    }
-    std::fs::File::open(path).map_err(|e| io_error(path, &e))
+/// Open a data file for reading within the data size limit ([`crate::input`]), with errors
+/// that say what to do.
+pub(crate) fn open(path: &Path) -> Result<crate::input::Limited<std::fs::File>, DataError> {
+    crate::input::open_limited(path, crate::input::Input::Data)
 }
 
 /// An I/O error on `path`, with a fix.
 pub fn io_error(path: &Path, e: &std::io::Error) -> DataError {
+    if let Some(t) = e
+        .get_ref()
+        .and_then(|i| i.downcast_ref::<crate::input::TooLarge>())
+    {
+        return t.to_error();
+    }
     let fix = match e.kind() {
         std::io::ErrorKind::NotFound => "check the path; the file does not exist",
         std::io::ErrorKind::PermissionDenied => "check the file's permissions (chmod +r)",
@@ -819,10 +817,7 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Dataset, DataError> {
 
 /// Read a whole text file, accepting a UTF-8 BOM; invalid UTF-8 is an error with a fix.
 pub(crate) fn read_text(path: &Path) -> Result<String, DataError> {
-    let mut bytes = Vec::new();
-    open(path)?
-        .read_to_end(&mut bytes)
-        .map_err(|e| io_error(path, &e))?;
+    let bytes = crate::input::read_limited(path, crate::input::Input::Data)?;
     let bytes = bytes
         .strip_prefix(b"\xEF\xBB\xBF")
         .unwrap_or(&bytes)

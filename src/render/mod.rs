@@ -682,6 +682,73 @@ struct Sample {
 }
 
 impl Scene {
+    /// Check what the renderer relies on: every number finite, radiances, colours and
+    /// intensities ≥ 0, ks, kt and `min_weight` in [0, 1], a positive index, checker size and
+    /// resolution, a camera that can look. A scene file is checked in more detail where it is
+    /// read ([`scene::parse_scene`]); this guards scenes built in code.
+    pub fn check_inputs(&self) -> Result<(), String> {
+        let fin = |v: DVec3| v.is_finite();
+        let nonneg = |v: DVec3| v.is_finite() && v.min_element() >= 0.0;
+        let c = &self.camera;
+        if !(fin(c.eye) && fin(c.target) && fin(c.up) && c.fov_deg > 0.0 && c.fov_deg < 180.0)
+            || c.width == 0
+            || c.height == 0
+        {
+            return Err("the camera has a value that is not finite or out of range".into());
+        }
+        if !(nonneg(self.ambient) && nonneg(self.background)) {
+            return Err("ambient and background must be finite and ≥ 0".into());
+        }
+        if !(self.min_weight >= 0.0 && self.min_weight <= 1.0) {
+            return Err(format!("min_weight {} is not in [0, 1]", self.min_weight));
+        }
+        if let AntiAlias::Adaptive { threshold, .. } = self.antialias
+            && !(threshold.is_finite() && threshold >= 0.0)
+        {
+            return Err(format!(
+                "antialias threshold {threshold} is not a finite number ≥ 0"
+            ));
+        }
+        for (k, l) in self.lights.iter().enumerate() {
+            let ok = match l {
+                Light::Point {
+                    position,
+                    intensity,
+                } => fin(*position) && nonneg(*intensity),
+                Light::Directional {
+                    direction,
+                    irradiance,
+                } => fin(*direction) && direction.length() > 0.0 && nonneg(*irradiance),
+            };
+            if !ok {
+                return Err(format!(
+                    "light {} has a value that is not finite or < 0",
+                    k + 1
+                ));
+            }
+        }
+        for m in &self.materials {
+            let ok = nonneg(m.color)
+                && m.model.params().iter().all(|p| p.is_finite())
+                && (0.0..=1.0).contains(&m.ks)
+                && (0.0..=1.0).contains(&m.kt)
+                && m.ior.is_finite()
+                && m.ior > 0.0
+                && m.checker.is_none_or(|ch| {
+                    ch.size.is_finite() && ch.size > 0.0 && nonneg(ch.color0) && nonneg(ch.color1)
+                })
+                && m.roughness
+                    .is_none_or(|r| r.cmin.is_finite() && r.cmin > 0.0 && r.frequency.is_finite());
+            if !ok {
+                return Err(format!(
+                    "material {} has a value that is not finite or out of range",
+                    m.name
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// Nearest hit: (object index, t, outward normal, uv).
     pub fn intersect(&self, r: &Ray, tmax: f64) -> Option<(usize, f64, DVec3)> {
         let mut best: Option<(usize, f64, DVec3)> = None;
@@ -1177,8 +1244,54 @@ pub fn to_srgb8(img: &Image) -> Vec<u8> {
         .collect()
 }
 
+/// Largest image side rendered without an explicit permission (`--allow-large-image`).
+pub const MAX_SIDE: u32 = 8192;
+/// Largest pixel count rendered without an explicit permission: 16 M pixels.
+pub const MAX_PIXELS: u64 = 1 << 24;
+
+/// An error for an image beyond [`MAX_SIDE`] on a side or [`MAX_PIXELS`] in all, unless
+/// `allow_large` (rendering keeps about 35 bytes a pixel, so 16 M pixels take about 0.6 GB).
+pub fn check_image_size(width: u32, height: u32, allow_large: bool) -> Result<(), String> {
+    let pixels = width as u64 * height as u64;
+    if !allow_large && (width > MAX_SIDE || height > MAX_SIDE || pixels > MAX_PIXELS) {
+        return Err(format!(
+            "the image would be {width}×{height} ({:.1} M pixels), above the limit of {MAX_SIDE} on a side and {} M pixels (about 35 bytes of memory a pixel)\n  fix: render smaller, or allow it with --allow-large-image",
+            pixels as f64 / 1e6,
+            MAX_PIXELS >> 20
+        ));
+    }
+    Ok(())
+}
+
+/// An error unless every pixel of `img` is finite: how many are not, and the first (x, y).
+pub fn check_finite(img: &Image) -> anyhow::Result<()> {
+    let bad = img
+        .pixels
+        .iter()
+        .filter(|p| p.iter().any(|v| !v.is_finite()))
+        .count();
+    if let Some(k) = img
+        .pixels
+        .iter()
+        .position(|p| p.iter().any(|v| !v.is_finite()))
+    {
+        let w = img.width.max(1) as usize;
+        anyhow::bail!(
+            "the rendered image has {bad} pixels that are not finite numbers (the first at x = {}, y = {}: {:?}); nothing was written\n  fix: lower the values that overflow: light intensity, colours or the material's parameters",
+            k % w,
+            k / w,
+            img.pixels[k]
+        );
+    }
+    Ok(())
+}
+
 /// Write `base.png` (sRGB 8-bit) and `base.exr` (linear f32), atomically; returns both paths.
+/// An image holding a NaN or infinite pixel is refused (an error, no file): the message gives
+/// how many and the first.
 pub fn save(img: &Image, base: &std::path::Path) -> anyhow::Result<[std::path::PathBuf; 2]> {
+    check_finite(img)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", base.with_extension("exr").display()))?;
     let png = crate::plot::encode_png(img.width, img.height, &to_srgb8(img))?;
     crate::output::write_bytes_atomic(&base.with_extension("png"), &png)?;
     let mut exr = std::io::Cursor::new(Vec::new());

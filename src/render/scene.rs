@@ -53,20 +53,22 @@ use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::Path;
 
+/// Largest |coordinate| of a position (eye, target, centre, point, light position).
+pub const MAX_COORD: f64 = 1e6;
+/// Largest sphere radius and plane half-size.
+pub const MAX_SIZE: f64 = 1e6;
+/// Largest ambient or background radiance, and largest light colour component.
+pub const MAX_RADIANCE: f64 = 1e6;
+/// Largest light intensity, and largest product of a light's colour and intensity.
+pub const MAX_INTENSITY: f64 = 1e12;
+/// Largest roughness-texture frequency and checker square size.
+pub const MAX_FREQUENCY: f64 = 1e6;
+
 #[derive(Deserialize)]
 #[serde(untagged)]
 enum ColorSpec {
     Grey(f64),
     Rgb([f64; 3]),
-}
-
-impl ColorSpec {
-    fn rgb(&self) -> DVec3 {
-        match self {
-            ColorSpec::Grey(g) => DVec3::splat(*g),
-            ColorSpec::Rgb(c) => DVec3::from_array(*c),
-        }
-    }
 }
 
 #[derive(Deserialize)]
@@ -153,43 +155,170 @@ struct SceneFile {
     ambient: Option<ColorSpec>,
     background: Option<ColorSpec>,
     antialias: Option<AaSpec>,
+    test_object: Option<String>,
     #[serde(default)]
     lights: Vec<LightSpec>,
-    #[serde(default)]
-    materials: BTreeMap<String, MaterialSpec>,
+    #[serde(default, deserialize_with = "in_file_order")]
+    materials: Vec<(String, MaterialSpec)>,
     #[serde(default)]
     objects: Vec<ObjectSpec>,
 }
 
-fn finite3(v: [f64; 3], what: &str) -> Result<DVec3> {
-    if v.iter().all(|x| x.is_finite()) {
-        Ok(DVec3::from_array(v))
+/// The `[materials.*]` tables in the order the file gives them (the parser's table is sorted
+/// by name; each key's position in the text restores the file's order).
+fn in_file_order<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<Vec<(String, MaterialSpec)>, D::Error> {
+    struct Entries;
+    impl<'de> serde::de::Visitor<'de> for Entries {
+        type Value = Vec<(toml::Spanned<String>, MaterialSpec)>;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a table of materials, [materials.NAME]")
+        }
+        fn visit_map<A: serde::de::MapAccess<'de>>(
+            self,
+            mut m: A,
+        ) -> Result<Self::Value, A::Error> {
+            let mut v = Vec::new();
+            while let Some(e) = m.next_entry()? {
+                v.push(e);
+            }
+            Ok(v)
+        }
+    }
+    let mut v = d.deserialize_map(Entries)?;
+    v.sort_by_key(|(k, _)| k.span().start);
+    Ok(v.into_iter().map(|(k, m)| (k.into_inner(), m)).collect())
+}
+
+/// A bound in a message: 1e6 rather than 1000000.
+fn show(x: f64) -> String {
+    if x.abs() >= 1e4 {
+        format!("{x:e}")
     } else {
-        bail!("{what} must be three finite numbers")
+        format!("{x}")
     }
 }
 
-/// Read a scene from TOML text; `dir` resolves relative paths (fit JSON, OBJ).
-pub fn parse_scene(text: &str, dir: &Path) -> Result<Scene> {
-    let f: SceneFile = toml::from_str(text).map_err(|e| anyhow!("{e}"))?;
-    let cam = &f.camera;
-    if cam.width == 0 || cam.height == 0 || cam.width > 16384 || cam.height > 16384 {
+/// `v` within [lo, hi] (and finite), or an error naming `key`.
+fn closed(key: &str, v: f64, lo: f64, hi: f64) -> Result<f64> {
+    if v >= lo && v <= hi {
+        Ok(v)
+    } else {
         bail!(
-            "camera resolution {}×{} is invalid\n  fix: width and height must be between 1 and 16384",
-            cam.width,
-            cam.height
-        );
+            "{key} = {v} is out of range\n  fix: give a finite number from {} to {}",
+            show(lo),
+            show(hi)
+        )
     }
+}
+
+/// `v` within (0, hi] (and finite), or an error naming `key`.
+fn positive(key: &str, v: f64, hi: f64) -> Result<f64> {
+    if v > 0.0 && v <= hi {
+        Ok(v)
+    } else {
+        bail!(
+            "{key} = {v} is out of range\n  fix: give a finite number greater than 0 and at most {}",
+            show(hi)
+        )
+    }
+}
+
+/// An integer setting within [lo, hi].
+fn count(key: &str, v: u32, lo: u32, hi: u32) -> Result<u32> {
+    if (lo..=hi).contains(&v) {
+        Ok(v)
+    } else {
+        bail!("{key} = {v} is out of range\n  fix: give a whole number from {lo} to {hi}")
+    }
+}
+
+/// A colour (a number is grey) with every component in [0, hi].
+fn color(key: &str, c: &ColorSpec, hi: f64) -> Result<DVec3> {
+    let v = match c {
+        ColorSpec::Grey(g) => [*g; 3],
+        ColorSpec::Rgb(c) => *c,
+    };
+    if v.iter().all(|x| *x >= 0.0 && *x <= hi) {
+        Ok(DVec3::from_array(v))
+    } else {
+        bail!(
+            "{key} = {v:?} is out of range\n  fix: give a number or [r, g, b], each finite from 0 to {}",
+            show(hi)
+        )
+    }
+}
+
+/// A position: three finite coordinates of magnitude at most [`MAX_COORD`].
+fn position(key: &str, v: [f64; 3]) -> Result<DVec3> {
+    if v.iter().all(|x| x.abs() <= MAX_COORD) {
+        Ok(DVec3::from_array(v))
+    } else {
+        bail!(
+            "{key} = {v:?} is out of range\n  fix: give three finite coordinates of magnitude at most {}",
+            show(MAX_COORD)
+        )
+    }
+}
+
+/// A direction: finite, not zero; returned normalised.
+fn direction(key: &str, v: [f64; 3]) -> Result<DVec3> {
+    let d = DVec3::from_array(v);
+    if v.iter().all(|x| x.abs() <= MAX_COORD) && d.length() > 1e-12 {
+        Ok(d.normalize())
+    } else {
+        bail!(
+            "{key} = {v:?} is not a direction\n  fix: give three finite numbers, not all zero, of magnitude at most {}",
+            show(MAX_COORD)
+        )
+    }
+}
+
+/// A required key of a kind of light or object.
+fn need<T: Copy>(v: Option<T>, owner: &str, key: &str) -> Result<T> {
+    v.ok_or_else(|| anyhow!("{owner} needs `{key}`\n  fix: add {key} = … to it"))
+}
+
+/// Refuse keys given that do not apply to this kind of light, object or mode.
+fn not_for(owner: &str, keys: &[(&str, bool)], hint: &str) -> Result<()> {
+    if let Some((k, _)) = keys.iter().find(|(_, given)| *given) {
+        bail!("{owner}: `{k}` does not apply here\n  fix: remove it ({hint})");
+    }
+    Ok(())
+}
+
+/// Read a scene from TOML text; `dir` resolves relative paths (fit JSON, OBJ). Every value is
+/// checked against its range (README, "Scene files"); unknown, missing and duplicate keys are
+/// errors naming the key. `materials[0]` of the result is the test object of `brdfit choose`:
+/// the material named by the top-level `test_object`, else the first in the file; the others
+/// follow in file order.
+pub fn parse_scene(text: &str, dir: &Path) -> Result<Scene> {
+    let f: SceneFile = toml::from_str(text).map_err(|e| {
+        let fix = match (e.message(), e.span()) {
+            ("duplicate key", Some(span)) => format!(
+                "`{}` is given twice in one table: keep one",
+                text.get(span).unwrap_or("?")
+            ),
+            _ => "correct the key or value named above (the scene format is in README.md, \"Scene files\")".into(),
+        };
+        anyhow!("{}\n  fix: {fix}", e.to_string().trim_end())
+    })?;
+    let cam = &f.camera;
+    count("`camera.width`", cam.width, 1, 16384)?;
+    count("`camera.height`", cam.height, 1, 16384)?;
     if !(cam.fov > 0.0 && cam.fov < 180.0) {
         bail!(
-            "camera fov {} is invalid\n  fix: give a horizontal field of view in (0, 180) degrees",
+            "`camera.fov` = {} is out of range\n  fix: give a horizontal field of view in degrees, greater than 0 and less than 180",
             cam.fov
         );
     }
-    let eye = finite3(cam.eye, "camera.eye")?;
-    let target = finite3(cam.target, "camera.target")?;
-    let up = finite3(cam.up.unwrap_or([0.0, 1.0, 0.0]), "camera.up")?;
-    if (target - eye).length() < 1e-12 || (target - eye).cross(up).length() < 1e-12 {
+    let eye = position("`camera.eye`", cam.eye)?;
+    let target = position("`camera.target`", cam.target)?;
+    let up = direction("`camera.up`", cam.up.unwrap_or([0.0, 1.0, 0.0]))?;
+    if (target - eye).length() < 1e-9 * eye.abs().max_element().max(1.0)
+        || (target - eye).normalize().cross(up).length() < 1e-9
+    {
         bail!(
             "the camera looks along its up vector or at its own position\n  fix: give a target away from the eye and an up vector not parallel to the view"
         );
@@ -202,98 +331,160 @@ pub fn parse_scene(text: &str, dir: &Path) -> Result<Scene> {
         width: cam.width,
         height: cam.height,
     };
+    // The test object first, then the others in file order.
+    let mut specs: Vec<&(String, MaterialSpec)> = f.materials.iter().collect();
+    if let Some(t) = &f.test_object {
+        let k = specs.iter().position(|(n, _)| n == t).ok_or_else(|| {
+            anyhow!(
+                "`test_object` = \"{t}\" names no material\n  fix: use one of: {}",
+                names_of(&f.materials)
+            )
+        })?;
+        let first = specs.remove(k);
+        specs.insert(0, first);
+    }
     let mut names = Vec::new();
     let mut materials = Vec::new();
-    for (name, m) in &f.materials {
+    for (name, m) in specs {
         materials.push(material(name, m, dir)?);
         names.push(name.clone());
     }
     let mut objects = Vec::new();
     for (k, o) in f.objects.iter().enumerate() {
+        let owner = format!("object {} ({})", k + 1, o.kind);
         let mi = names.iter().position(|n| *n == o.material).ok_or_else(|| {
-            anyhow!("object {} uses material '{}', which is not defined\n  fix: add [materials.{}] or use one of: {}", k + 1, o.material, o.material, names.join(", "))
+            anyhow!("{owner} uses material '{}', which is not defined\n  fix: add [materials.{}] or use one of: {}", o.material, o.material, names.join(", "))
         })?;
-        let need = |v: Option<[f64; 3]>, what: &str| -> Result<DVec3> {
-            finite3(
-                v.ok_or_else(|| anyhow!("object {} ({}) needs `{what}`", k + 1, o.kind))?,
-                what,
-            )
-        };
         let shape = match o.kind.as_str() {
             "sphere" => {
-                let radius = o.radius.unwrap_or(1.0);
-                if !(radius > 0.0 && radius.is_finite()) {
-                    bail!("object {}: sphere radius {radius} must be positive", k + 1);
-                }
+                not_for(
+                    &owner,
+                    &[
+                        ("point", o.point.is_some()),
+                        ("normal", o.normal.is_some()),
+                        ("size", o.size.is_some()),
+                        ("path", o.path.is_some()),
+                    ],
+                    "a sphere takes center and radius",
+                )?;
                 Shape::Sphere {
-                    center: need(o.center, "center")?,
-                    radius,
+                    center: position(
+                        &format!("{owner}: `center`"),
+                        need(o.center, &owner, "center")?,
+                    )?,
+                    radius: positive(
+                        &format!("{owner}: `radius`"),
+                        o.radius.unwrap_or(1.0),
+                        MAX_SIZE,
+                    )?,
                 }
             }
             "plane" => {
-                let normal = need(o.normal, "normal")?;
-                if normal.length() < 1e-12 {
-                    bail!("object {}: plane normal is zero", k + 1);
-                }
-                let normal = normal.normalize();
+                not_for(
+                    &owner,
+                    &[
+                        ("center", o.center.is_some()),
+                        ("radius", o.radius.is_some()),
+                        ("path", o.path.is_some()),
+                    ],
+                    "a plane takes point, normal and an optional half-size size",
+                )?;
+                let normal = direction(
+                    &format!("{owner}: `normal`"),
+                    need(o.normal, &owner, "normal")?,
+                )?;
                 let (u, v) = plane_axes(normal);
                 Shape::Plane {
-                    point: need(o.point, "point")?,
+                    point: position(
+                        &format!("{owner}: `point`"),
+                        need(o.point, &owner, "point")?,
+                    )?,
                     normal,
-                    half: o.size,
+                    half: o
+                        .size
+                        .map(|s| positive(&format!("{owner}: `size`"), s, MAX_SIZE))
+                        .transpose()?,
                     u,
                     v,
                 }
             }
             "mesh" => {
-                let p = dir.join(
-                    o.path
-                        .as_deref()
-                        .ok_or_else(|| anyhow!("object {} (mesh) needs `path`", k + 1))?,
-                );
-                Shape::Mesh(read_obj(&p)?)
+                not_for(
+                    &owner,
+                    &[
+                        ("center", o.center.is_some()),
+                        ("radius", o.radius.is_some()),
+                        ("point", o.point.is_some()),
+                        ("normal", o.normal.is_some()),
+                        ("size", o.size.is_some()),
+                    ],
+                    "a mesh takes path",
+                )?;
+                let p = dir.join(need(o.path.as_deref(), &owner, "path")?);
+                let mesh = read_obj(&p)?;
+                if mesh.tris.is_empty() {
+                    bail!(
+                        "{owner}: {} holds no triangle\n  fix: give an OBJ file with `v` and `f` lines",
+                        p.display()
+                    );
+                }
+                Shape::Mesh(mesh)
             }
-            other => bail!(
-                "object {}: unknown kind '{other}'\n  fix: use sphere, plane or mesh",
-                k + 1
-            ),
+            other => bail!("{owner}: unknown kind '{other}'\n  fix: use sphere, plane or mesh"),
         };
         objects.push(Object::new(shape, mi));
     }
     let mut lights = Vec::new();
     for (k, l) in f.lights.iter().enumerate() {
-        let color = l.color.as_ref().map_or(DVec3::ONE, |c| c.rgb());
-        if !(l.intensity.is_finite() && l.intensity >= 0.0) {
-            bail!("light {}: intensity must be a finite number ≥ 0", k + 1);
+        let owner = format!("light {} ({})", k + 1, l.kind);
+        let color = match &l.color {
+            Some(c) => color(&format!("{owner}: `color`"), c, MAX_RADIANCE)?,
+            None => DVec3::ONE,
+        };
+        let intensity = closed(
+            &format!("{owner}: `intensity`"),
+            l.intensity,
+            0.0,
+            MAX_INTENSITY,
+        )?;
+        let power = color * intensity;
+        if power.max_element() > MAX_INTENSITY {
+            bail!(
+                "{owner}: color × intensity = {:?} is above {}\n  fix: lower the intensity or the colour",
+                power.to_array(),
+                show(MAX_INTENSITY)
+            );
         }
         lights.push(match l.kind.as_str() {
-            "point" => Light::Point {
-                position: finite3(
-                    l.position
-                        .ok_or_else(|| anyhow!("light {} (point) needs `position`", k + 1))?,
-                    "position",
-                )?,
-                intensity: color * l.intensity,
-            },
-            "directional" => {
-                let d = finite3(
-                    l.direction.ok_or_else(|| {
-                        anyhow!("light {} (directional) needs `direction`", k + 1)
-                    })?,
-                    "direction",
+            "point" => {
+                not_for(
+                    &owner,
+                    &[("direction", l.direction.is_some())],
+                    "a point light takes position",
                 )?;
-                if d.length() < 1e-12 {
-                    bail!("light {}: direction is zero", k + 1);
-                }
-                Light::Directional {
-                    direction: d.normalize(),
-                    irradiance: color * l.intensity,
+                Light::Point {
+                    position: position(
+                        &format!("{owner}: `position`"),
+                        need(l.position, &owner, "position")?,
+                    )?,
+                    intensity: power,
                 }
             }
-            other => bail!(
-                "light {}: unknown kind '{other}'\n  fix: use point or directional",
-                k + 1
-            ),
+            "directional" => {
+                not_for(
+                    &owner,
+                    &[("position", l.position.is_some())],
+                    "a directional light takes direction, toward the light",
+                )?;
+                Light::Directional {
+                    direction: direction(
+                        &format!("{owner}: `direction`"),
+                        need(l.direction, &owner, "direction")?,
+                    )?,
+                    irradiance: power,
+                }
+            }
+            other => bail!("{owner}: unknown kind '{other}'\n  fix: use point or directional"),
         });
     }
     let antialias = match &f.antialias {
@@ -303,50 +494,117 @@ pub fn parse_scene(text: &str, dir: &Path) -> Result<Scene> {
             block: 1,
             jitter: false,
         },
-        Some(a) => match a.mode.as_str() {
-            "none" => AntiAlias::None,
-            "uniform" => AntiAlias::Uniform(a.samples.unwrap_or(4).clamp(1, 64)),
-            "stratified" => AntiAlias::Stratified(a.samples.unwrap_or(4).clamp(1, 64)),
-            "adaptive" => AntiAlias::Adaptive {
-                threshold: a.threshold.unwrap_or(0.02).max(0.0),
-                max_level: a.max_level.unwrap_or(3).min(8),
-                block: match a.block.unwrap_or(1) {
-                    b @ (1 | 2 | 4) => b,
-                    b => bail!("antialias block = {b} is not supported\n  fix: use 1, 2 or 4"),
-                },
-                jitter: a.jitter.unwrap_or(false),
-            },
-            other => {
-                bail!(
+        Some(a) => {
+            let adaptive_keys = [
+                ("threshold", a.threshold.is_some()),
+                ("max_level", a.max_level.is_some()),
+                ("block", a.block.is_some()),
+                ("jitter", a.jitter.is_some()),
+            ];
+            let owner = format!("antialias mode \"{}\"", a.mode);
+            match a.mode.as_str() {
+                "none" => {
+                    not_for(&owner, &adaptive_keys, "mode none takes no other key")?;
+                    not_for(
+                        &owner,
+                        &[("samples", a.samples.is_some())],
+                        "mode none takes no other key",
+                    )?;
+                    AntiAlias::None
+                }
+                "uniform" | "stratified" => {
+                    not_for(&owner, &adaptive_keys, "this mode takes samples")?;
+                    let n = count("`antialias.samples`", a.samples.unwrap_or(4), 1, 64)?;
+                    if a.mode == "uniform" {
+                        AntiAlias::Uniform(n)
+                    } else {
+                        AntiAlias::Stratified(n)
+                    }
+                }
+                "adaptive" => {
+                    not_for(
+                        &owner,
+                        &[("samples", a.samples.is_some())],
+                        "adaptive takes threshold, max_level, block and jitter",
+                    )?;
+                    AntiAlias::Adaptive {
+                        threshold: closed(
+                            "`antialias.threshold`",
+                            a.threshold.unwrap_or(0.02),
+                            0.0,
+                            100.0,
+                        )?,
+                        max_level: count("`antialias.max_level`", a.max_level.unwrap_or(3), 0, 8)?,
+                        block: match a.block.unwrap_or(1) {
+                            b @ (1 | 2 | 4) => b,
+                            b => bail!(
+                                "`antialias.block` = {b} is not supported\n  fix: use 1, 2 or 4"
+                            ),
+                        },
+                        jitter: a.jitter.unwrap_or(false),
+                    }
+                }
+                other => bail!(
                     "antialias mode '{other}' is unknown\n  fix: use adaptive, uniform, stratified or none"
-                )
+                ),
             }
-        },
+        }
     };
-    Ok(Scene {
+    let scene = Scene {
         camera,
         objects,
         materials,
         lights,
-        ambient: f.ambient.as_ref().map_or(DVec3::ZERO, |c| c.rgb()),
-        background: f.background.as_ref().map_or(DVec3::ZERO, |c| c.rgb()),
-        max_depth: f.max_depth.unwrap_or(4).clamp(1, 64),
-        min_weight: f.min_weight.unwrap_or(1e-3).max(0.0),
+        ambient: match &f.ambient {
+            Some(c) => color("`ambient`", c, MAX_RADIANCE)?,
+            None => DVec3::ZERO,
+        },
+        background: match &f.background {
+            Some(c) => color("`background`", c, MAX_RADIANCE)?,
+            None => DVec3::ZERO,
+        },
+        max_depth: count("`max_depth`", f.max_depth.unwrap_or(4), 1, 64)?,
+        min_weight: closed("`min_weight`", f.min_weight.unwrap_or(1e-3), 0.0, 1.0)?,
         antialias,
-    })
+    };
+    scene.check_inputs().map_err(|e| anyhow!("{e}"))?;
+    Ok(scene)
+}
+
+fn names_of(m: &[(String, MaterialSpec)]) -> String {
+    m.iter()
+        .map(|(n, _)| n.as_str())
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 fn material(name: &str, m: &MaterialSpec, dir: &Path) -> Result<Material> {
+    let key = |k: &str| format!("`materials.{name}.{k}`");
     let model = match (&m.fit, &m.model) {
-        (Some(fit), _) => {
+        (Some(_), Some(_)) => bail!(
+            "material {name} has both `model` and `fit`\n  fix: keep one: the fit file gives the model and its parameters"
+        ),
+        (Some(fit), None) => {
+            not_for(
+                &format!("material {name}"),
+                &[
+                    ("distribution", m.distribution.is_some()),
+                    ("params", m.params.is_some()),
+                ],
+                "the fit file gives the distribution and the parameters",
+            )?;
             let p = dir.join(fit);
-            let text = std::fs::read_to_string(&p)
-                .with_context(|| format!("material {name}: cannot read fit {}", p.display()))?;
-            let v: serde_json::Value = serde_json::from_str(&text)
-                .map_err(|e| anyhow!("material {name}: {} is not JSON: {e}", p.display()))?;
+            let text = crate::input::read_to_string_limited(&p, crate::input::Input::FitJson)
+                .with_context(|| format!("material {name}"))?;
+            let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+                anyhow!(
+                    "material {name}: {} is not JSON: {e}\n  fix: give a file written by brdfit fit --json",
+                    p.display()
+                )
+            })?;
             let v = v.get("fits").and_then(|f| f.get(0)).cloned().unwrap_or(v);
             crate::fit::FitResult::from_json(&v)
-                .map_err(|e| anyhow!("material {name}: {e}"))?
+                .map_err(|e| anyhow!("material {name}: {}: {e}", p.display()))?
                 .model_for(0)
         }
         (None, Some(kind)) => {
@@ -357,38 +615,63 @@ fn material(name: &str, m: &MaterialSpec, dir: &Path) -> Result<Material> {
                 )
             })?;
             let dist = match &m.distribution {
-                Some(d) => Distribution::parse(d)
-                    .ok_or_else(|| anyhow!("material {name}: unknown distribution '{d}'"))?,
+                Some(d) if kind != ModelKind::TorranceSparrow => bail!(
+                    "material {name}: `distribution` = \"{d}\" applies to torrance-sparrow only\n  fix: remove it"
+                ),
+                Some(d) => Distribution::parse(d).ok_or_else(|| {
+                    anyhow!("material {name}: unknown distribution '{d}'\n  fix: use d1, d2 or d3")
+                })?,
                 None => Distribution::D3,
             };
-            let set: Vec<(String, f64)> =
-                m.params.clone().unwrap_or_default().into_iter().collect();
-            Model::from_named(kind, dist, &set).map_err(|e| anyhow!("material {name}: {e}"))?
+            let set: Vec<(String, f64)> = match &m.params {
+                Some(p) => p.clone().into_iter().collect(),
+                None => bail!(
+                    "material {name} needs `params`\n  fix: add params = {{ … }} with {}",
+                    kind.param_names(dist).join(", ")
+                ),
+            };
+            Model::from_named(kind, dist, &set)
+                .map_err(|e| anyhow!("material {name}: `params`: {e}"))?
         }
         (None, None) => bail!(
             "material {name} has neither `model` nor `fit`\n  fix: add model = \"lambert\" and params = {{ pd = 0.5 }}, or fit = \"FILE.json\""
         ),
     };
-    let ior = m.ior.unwrap_or(1.5);
-    if !(ior > 0.0 && ior.is_finite()) {
-        bail!("material {name}: ior {ior} must be positive");
-    }
+    let roughness = match &m.roughness {
+        None => None,
+        Some(r) => {
+            if (model.kind, model.dist) != (ModelKind::TorranceSparrow, Distribution::D3) {
+                bail!(
+                    "material {name}: `roughness` modulates Blinn's D3 and applies to torrance-sparrow d3 only, this is {} {}\n  fix: remove it or use model = \"torrance-sparrow\"",
+                    model.kind,
+                    model.dist.name()
+                );
+            }
+            Some(RoughnessTexture {
+                cmin: closed(&key("roughness.cmin"), r.cmin, 1e-3, 1.0)?,
+                frequency: closed(&key("roughness.frequency"), r.frequency, 0.0, MAX_FREQUENCY)?,
+            })
+        }
+    };
     Ok(Material {
         name: name.to_string(),
         model,
-        color: m.color.as_ref().map_or(DVec3::ONE, |c| c.rgb()),
-        checker: m.checker.as_ref().map(|c| Checker {
-            size: c.size.abs().max(1e-9),
-            color0: c.color0.rgb(),
-            color1: c.color1.rgb(),
-        }),
-        ks: m.ks.unwrap_or(0.0).clamp(0.0, 1.0),
-        kt: m.kt.unwrap_or(0.0).clamp(0.0, 1.0),
-        ior,
-        roughness: m.roughness.as_ref().map(|r| RoughnessTexture {
-            cmin: r.cmin.clamp(1e-3, 1.0),
-            frequency: r.frequency,
-        }),
+        color: match &m.color {
+            Some(c) => color(&key("color"), c, 1.0)?,
+            None => DVec3::ONE,
+        },
+        checker: match &m.checker {
+            None => None,
+            Some(c) => Some(Checker {
+                size: positive(&key("checker.size"), c.size, MAX_FREQUENCY)?,
+                color0: color(&key("checker.color0"), &c.color0, 1.0)?,
+                color1: color(&key("checker.color1"), &c.color1, 1.0)?,
+            }),
+        },
+        ks: closed(&key("ks"), m.ks.unwrap_or(0.0), 0.0, 1.0)?,
+        kt: closed(&key("kt"), m.kt.unwrap_or(0.0), 0.0, 1.0)?,
+        ior: closed(&key("ior"), m.ior.unwrap_or(1.5), 0.01, 100.0)?,
+        roughness,
         measured: None,
     })
 }
@@ -415,17 +698,15 @@ pub fn plane_axes(n: DVec3) -> (DVec3, DVec3) {
 
 /// Read a scene file.
 pub fn load_scene(path: &Path) -> Result<Scene> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("{}: cannot read the scene", path.display()))?;
+    let text = crate::input::read_to_string_limited(path, crate::input::Input::Scene)?;
     let dir = path.parent().unwrap_or(Path::new("."));
-    parse_scene(&text, dir).map_err(|e| anyhow!("{}: {e}", path.display()))
+    parse_scene(&text, dir).with_context(|| path.display().to_string())
 }
 
 /// Read the `v` and `f` lines of an OBJ file (polygons fanned into triangles; negative
 /// indices count from the end).
 pub fn read_obj(path: &Path) -> Result<Mesh> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("{}: cannot read the OBJ file", path.display()))?;
+    let text = crate::input::read_to_string_limited(path, crate::input::Input::Mesh)?;
     let mut verts: Vec<DVec3> = Vec::new();
     let mut tris = Vec::new();
     for (ln, line) in text.lines().enumerate() {

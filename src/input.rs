@@ -1,0 +1,229 @@
+//! Input size limits: every reader checks a file's size against the limit of its kind before
+//! reading, and reads at most limit + 1 bytes, so a huge file or a device (`/dev/zero`, whose
+//! metadata length is 0) stops early with an error instead of exhausting memory.
+
+use crate::data::DataError;
+use std::io::Read;
+use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// The kinds of input brdfit reads, each with its own default size limit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Input {
+    /// A measurement (CSV, ASTM, Cornell, MERL): 256 MiB.
+    Data,
+    /// A fit JSON (`brdfit fit --json`, a report's `results.json`): 16 MiB.
+    FitJson,
+    /// A scene TOML: 1 MiB.
+    Scene,
+    /// An OBJ mesh a scene names: 64 MiB.
+    Mesh,
+}
+
+impl Input {
+    /// The default limit in bytes.
+    pub fn default_limit(self) -> u64 {
+        match self {
+            Input::Data => 256 << 20,
+            Input::FitJson => 16 << 20,
+            Input::Scene => 1 << 20,
+            Input::Mesh => 64 << 20,
+        }
+    }
+
+    /// What the input is, for messages.
+    pub fn what(self) -> &'static str {
+        match self {
+            Input::Data => "data file",
+            Input::FitJson => "fit JSON",
+            Input::Scene => "scene file",
+            Input::Mesh => "OBJ mesh",
+        }
+    }
+}
+
+/// 0 = the default limits; otherwise one limit in bytes for every kind.
+static LIMIT: AtomicU64 = AtomicU64::new(0);
+
+/// Replace every kind's limit by `bytes` (`None` restores the defaults). The command line's
+/// `--max-input-mb` sets this.
+pub fn set_max_input_bytes(bytes: Option<u64>) {
+    LIMIT.store(bytes.unwrap_or(0), Ordering::Relaxed);
+}
+
+/// The limit in bytes that applies to `kind` now.
+pub fn limit(kind: Input) -> u64 {
+    match LIMIT.load(Ordering::Relaxed) {
+        0 => kind.default_limit(),
+        n => n,
+    }
+}
+
+fn too_large(path: &Path, kind: Input, size: Option<u64>) -> DataError {
+    let lim = limit(kind);
+    let size = match size {
+        Some(s) => format!("{s} bytes"),
+        None => format!("more than {lim} bytes"),
+    };
+    DataError::new(
+        path,
+        None,
+        format!(
+            "the {} is {size}, above the limit of {lim} bytes ({} MB) for a {}",
+            kind.what(),
+            lim as f64 / (1u64 << 20) as f64,
+            kind.what()
+        ),
+        "check that this is the intended file; if it is, raise the input size limit",
+    )
+    .with_setting(crate::setting::Setting::MaxInputSize)
+}
+
+/// A reader that delivers at most `limit` bytes of a file and fails with an I/O error
+/// carrying [`TooLarge`] when the file has more (it reads one byte past the limit to know).
+pub struct Limited<R> {
+    inner: R,
+    left: u64,
+    path: std::path::PathBuf,
+    kind: Input,
+}
+
+/// The payload of the I/O error a [`Limited`] reader returns past the limit;
+/// [`crate::data::io_error`] turns it into the size-limit error.
+#[derive(Debug)]
+pub struct TooLarge {
+    /// The file.
+    pub path: std::path::PathBuf,
+    /// Its kind.
+    pub kind: Input,
+}
+
+impl std::fmt::Display for TooLarge {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", too_large(&self.path, self.kind, None))
+    }
+}
+
+impl std::error::Error for TooLarge {}
+
+impl TooLarge {
+    /// The error to report.
+    pub fn to_error(&self) -> DataError {
+        too_large(&self.path, self.kind, None)
+    }
+}
+
+impl<R: Read> Read for Limited<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        if buf.is_empty() {
+            return Ok(0);
+        }
+        if self.left == 0 {
+            let mut probe = [0u8; 1];
+            return match self.inner.read(&mut probe)? {
+                0 => Ok(0),
+                _ => Err(std::io::Error::other(TooLarge {
+                    path: self.path.clone(),
+                    kind: self.kind,
+                })),
+            };
+        }
+        let n = buf
+            .len()
+            .min(usize::try_from(self.left).unwrap_or(usize::MAX));
+        let got = self.inner.read(&mut buf[..n])?;
+        self.left -= got as u64;
+        Ok(got)
+    }
+}
+
+impl Limited<std::fs::File> {
+    /// The open file (for its metadata).
+    pub fn file(&self) -> &std::fs::File {
+        &self.inner
+    }
+}
+
+/// Open `path` as input of `kind`: refuse a directory, a missing or unreadable file, or a
+/// file whose size already exceeds the limit; the reader returned fails past the limit
+/// (a file that grew, or a device such as `/dev/zero`).
+pub fn open_limited(path: &Path, kind: Input) -> Result<Limited<std::fs::File>, DataError> {
+    let meta = std::fs::metadata(path).map_err(|e| crate::data::io_error(path, &e))?;
+    if meta.is_dir() {
+        return Err(DataError::new(
+            path,
+            None,
+            "is a directory",
+            "give the path of a file inside it",
+        ));
+    }
+    if meta.len() > limit(kind) {
+        return Err(too_large(path, kind, Some(meta.len())));
+    }
+    let f = std::fs::File::open(path).map_err(|e| crate::data::io_error(path, &e))?;
+    Ok(Limited {
+        inner: f,
+        left: limit(kind),
+        path: path.to_path_buf(),
+        kind,
+    })
+}
+
+/// Read all of `path`, input of `kind`, within its size limit.
+pub fn read_limited(path: &Path, kind: Input) -> Result<Vec<u8>, DataError> {
+    let mut bytes = Vec::new();
+    open_limited(path, kind)?
+        .read_to_end(&mut bytes)
+        .map_err(|e| crate::data::io_error(path, &e))?;
+    Ok(bytes)
+}
+
+/// [`read_limited`] as UTF-8 text; a UTF-8 BOM is dropped, invalid UTF-8 is an error that
+/// gives its offset.
+pub fn read_to_string_limited(path: &Path, kind: Input) -> Result<String, DataError> {
+    let mut bytes = read_limited(path, kind)?;
+    if bytes.starts_with(b"\xEF\xBB\xBF") {
+        bytes.drain(..3);
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        DataError::new(
+            path,
+            None,
+            format!(
+                "not UTF-8 text (invalid byte at offset {})",
+                e.utf8_error().valid_up_to()
+            ),
+            format!("save the {} as UTF-8 text", kind.what()),
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_device_stops_at_the_limit() {
+        // /dev/zero has metadata length 0 and never ends: only the limit + 1 read stops it.
+        let e = read_limited(Path::new("/dev/zero"), Input::Scene).unwrap_err();
+        assert!(e.message.contains("more than 1048576 bytes"), "{e}");
+        assert_eq!(e.setting, Some(crate::setting::Setting::MaxInputSize));
+    }
+
+    #[test]
+    fn a_file_at_the_limit_is_read_and_one_byte_more_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("s.toml");
+        std::fs::write(&p, vec![b'#'; 1 << 20]).unwrap();
+        assert_eq!(read_limited(&p, Input::Scene).unwrap().len(), 1 << 20);
+        std::fs::write(&p, vec![b'#'; (1 << 20) + 1]).unwrap();
+        let e = read_limited(&p, Input::Scene).unwrap_err();
+        assert!(
+            e.message
+                .contains("is 1048577 bytes, above the limit of 1048576 bytes (1 MB)"),
+            "{e}"
+        );
+        let e = read_limited(dir.path(), Input::Scene).unwrap_err();
+        assert!(e.message.contains("directory"), "{e}");
+    }
+}
