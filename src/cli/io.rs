@@ -116,19 +116,30 @@ pub(crate) struct ExportArgs {
     /// Output file (text formats go to standard output when omitted).
     #[arg(short, long)]
     pub(crate) output: Option<PathBuf>,
+    #[command(flatten)]
+    pub(crate) pick: PickArgs,
+    /// The channel to export from a fit file of several (default: all of an RGB file as
+    /// colour; the recommended channel otherwise).
+    #[arg(long)]
+    pub(crate) channel: Option<String>,
 }
 
 /// `brdfit export` (see its help).
 pub(crate) fn run_export(args: ExportArgs) -> Result<()> {
-    let ExportArgs { fit, to, output } = args;
+    let ExportArgs {
+        fit,
+        to,
+        output,
+        pick,
+        channel,
+    } = args;
     use brdfit::export::{self, ExportFormat};
     use clap::ValueEnum;
     let fmt = to;
     let to = to
         .to_possible_value()
         .map_or(String::new(), |v| v.get_name().to_string());
-    let r = read_fits(&fit)?.remove(0);
-    let m = r.model_for(0);
+    let m = pick_fit(&fit, &pick.want(channel.as_deref()), None)?.model;
     let id = fit
         .file_stem()
         .map_or("brdfit".into(), |s| s.to_string_lossy().into_owned());

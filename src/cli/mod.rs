@@ -202,6 +202,11 @@ pub(crate) enum Command {
         /// fig7: image resolution (square).
         #[arg(long, default_value_t = 512)]
         res: u32,
+        #[command(flatten)]
+        pick: PickArgs,
+        /// fig7: the channel to take from fit files of several.
+        #[arg(long)]
+        channel: Option<String>,
     },
     /// Export a fit to another renderer or format: mitsuba, pbrt, brdf-explorer, merl, csv.
     #[command(
@@ -267,11 +272,15 @@ pub(crate) fn run(cli: Cli) -> Result<()> {
             aluminium,
             mgo,
             res,
+            pick,
+            channel,
         } => run_render(
             &scene,
             &output,
             aluminium.as_deref(),
             mgo.as_deref(),
+            &pick,
+            channel.as_deref(),
             res,
             quiet(),
         ),
