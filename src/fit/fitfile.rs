@@ -724,6 +724,22 @@ pub struct Colour {
 }
 
 impl Colour {
+    /// One model as a grey material (the same ps and pd in r, g, b).
+    pub fn grey(m: &Model) -> Colour {
+        Colour {
+            model: *m,
+            pd: [m.pd(); 3],
+            ps: [m.role(crate::model::Role::Specular).unwrap_or(0.0); 3],
+            notes: vec![],
+            exact: true,
+        }
+    }
+
+    /// True when r, g and b are the same (a grey material).
+    pub fn is_grey(&self) -> bool {
+        self.pd.iter().all(|&v| v == self.pd[0]) && self.ps.iter().all(|&v| v == self.ps[0])
+    }
+
     /// The model of colour channel `c` (0 = red, 1 = green, 2 = blue).
     pub fn channel_model(&self, c: usize) -> Model {
         let mut m = self.model;
@@ -816,13 +832,7 @@ impl Picked {
         let ch = &self.channels;
         let model = ch[0].model;
         if ch.len() == 1 {
-            return Ok(Colour {
-                model,
-                pd: [model.pd(); 3],
-                ps: [model.role(crate::model::Role::Specular).unwrap_or(0.0); 3],
-                notes: vec![],
-                exact: true,
-            });
+            return Ok(Colour::grey(&model));
         }
         let names: Vec<&str> = ch.iter().map(|c| c.channel.as_str()).collect();
         let (w, how) = rgb_weights(&names).ok_or_else(|| {

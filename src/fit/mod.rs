@@ -28,8 +28,8 @@ use crate::model::Geometry;
 use crate::model::{Distribution, Model, ModelKind, ParamSpec, Role, Scale, readable};
 use crate::setting::Setting;
 pub use fitfile::{
-    FitFileError, Picked, PickedChannel, Want, is_unnamed_channel, parse_strict, pick, pick_one,
-    read_fit_file, same_channel,
+    Colour, FitFileError, Picked, PickedChannel, Want, is_unnamed_channel, parse_strict, pick,
+    pick_one, read_fit_file, same_channel,
 };
 pub use lsq::{Limits, Method};
 use lsq::{Problem, Robust, Solution};
