@@ -123,6 +123,12 @@ struct MaterialSpec {
     distribution: Option<String>,
     params: Option<BTreeMap<String, f64>>,
     fit: Option<String>,
+    /// With `fit`: the model to take from a file of several (`fit --model all`).
+    fit_model: Option<String>,
+    /// With `fit`: the channel to take (default: every channel, as colour).
+    fit_channel: Option<String>,
+    /// With `fit`: use a fit marked not usable.
+    fit_allow_unusable: Option<bool>,
     color: Option<ColorSpec>,
     checker: Option<CheckerSpec>,
     ks: Option<f64>,
@@ -337,17 +343,14 @@ pub fn parse_scene(text: &str, dir: &Path) -> Result<Scene> {
 }
 
 fn material(name: &str, m: &MaterialSpec, dir: &Path) -> Result<Material> {
+    // A colour fit: the lobe with ps = pd = 1, its channels' pd and ps as colours.
+    let mut fit_colour = (DVec3::ONE, DVec3::ONE);
     let model = match (&m.fit, &m.model) {
         (Some(fit), _) => {
             let p = dir.join(fit);
-            let text = std::fs::read_to_string(&p)
-                .with_context(|| format!("material {name}: cannot read fit {}", p.display()))?;
-            let v: serde_json::Value = serde_json::from_str(&text)
-                .map_err(|e| anyhow!("material {name}: {} is not JSON: {e}", p.display()))?;
-            let v = v.get("fits").and_then(|f| f.get(0)).cloned().unwrap_or(v);
-            crate::fit::FitResult::from_json(&v)
-                .map_err(|e| anyhow!("material {name}: {e}"))?
-                .model_for(0)
+            let (model, diffuse, specular) = fit_material(name, m, &p)?;
+            fit_colour = (diffuse, specular);
+            model
         }
         (None, Some(kind)) => {
             let kind = ModelKind::parse(kind).ok_or_else(|| {
@@ -376,7 +379,8 @@ fn material(name: &str, m: &MaterialSpec, dir: &Path) -> Result<Material> {
     Ok(Material {
         name: name.to_string(),
         model,
-        color: m.color.as_ref().map_or(DVec3::ONE, |c| c.rgb()),
+        color: m.color.as_ref().map_or(DVec3::ONE, |c| c.rgb()) * fit_colour.0,
+        specular: fit_colour.1,
         checker: m.checker.as_ref().map(|c| Checker {
             size: c.size.abs().max(1e-9),
             color0: c.color0.rgb(),
@@ -391,6 +395,69 @@ fn material(name: &str, m: &MaterialSpec, dir: &Path) -> Result<Material> {
         }),
         measured: None,
     })
+}
+
+/// A material's fit: the file read strictly, the model and channel picked by `fit_model` and
+/// `fit_channel` (see [`crate::fit::pick`]); several channels become colour (the shared lobe
+/// with ps = pd = 1, and their pd and ps as diffuse and specular colours). What was picked
+/// for the user and any colour compromise are said on stderr.
+fn fit_material(name: &str, m: &MaterialSpec, p: &Path) -> Result<(Model, DVec3, DVec3)> {
+    use crate::fit::{Want, pick, read_fit_file};
+    let text = std::fs::read_to_string(p)
+        .with_context(|| format!("material {name}: cannot read fit {}", p.display()))?;
+    let at = |e: &dyn std::fmt::Display| anyhow!("material {name}: {}: {e}", p.display());
+    let fits = read_fit_file(&text).map_err(|e| at(&e))?;
+    let model = match &m.fit_model {
+        None => None,
+        Some(k) => Some(ModelKind::parse(k).ok_or_else(|| {
+            anyhow!(
+                "material {name}: fit_model: unknown model '{k}'\n  fix: use one of {}",
+                ModelKind::names()
+            )
+        })?),
+    };
+    let want = Want {
+        model,
+        dist: m.distribution.as_deref().and_then(Distribution::parse),
+        channel: m.fit_channel.clone(),
+        allow_unusable: m.fit_allow_unusable.unwrap_or(false),
+    };
+    let picked = pick(&fits, &want).map_err(|e| {
+        at(&e
+            .to_string()
+            .replace("--allow-unusable", "fit_allow_unusable = true")
+            .replace("--model", "fit_model")
+            .replace("--channel", "fit_channel"))
+    })?;
+    let colour = picked
+        .colour()
+        .map_err(|e| at(&e.to_string().replace("with --channel", "with fit_channel")))?;
+    for n in picked.notes.iter().chain(&colour.notes) {
+        eprintln!(
+            "note: material {name}: {}: {}",
+            p.display(),
+            n.replace("--model", "fit_model")
+                .replace("--channel", "fit_channel")
+        );
+    }
+    if colour.is_grey() {
+        return Ok((colour.model, DVec3::ONE, DVec3::ONE));
+    }
+    let lobe = colour.channel_model(0);
+    let mut unit = lobe;
+    for (i, spec) in lobe.kind.params(lobe.dist).iter().enumerate() {
+        if matches!(
+            spec.role,
+            crate::model::Role::Diffuse | crate::model::Role::Specular
+        ) {
+            unit.p[i] = 1.0;
+        }
+    }
+    Ok((
+        unit,
+        DVec3::from_array(colour.pd),
+        DVec3::from_array(colour.ps),
+    ))
 }
 
 /// Texture axes of a plane: u follows world x (z when the normal is along x), v follows world
@@ -519,6 +586,7 @@ pub fn fig7_scene(model: Model, lighting: Lighting, res: u32) -> Scene {
             name: "test object".into(),
             model,
             color: DVec3::ONE,
+            specular: DVec3::ONE,
             checker: None,
             ks: 0.0,
             kt: 0.0,
