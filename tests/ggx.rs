@@ -97,26 +97,26 @@ fn fit_round_trip() {
 #[test]
 fn exports_state_the_mapping() {
     let m = ggx(0.25, 1.7, 0.8, 0.3);
-    let x = export::mitsuba(&m, "g");
+    let x = export::mitsuba(&brdfit::fit::Colour::grey(&m), "g").unwrap();
     for want in [
         "blendbsdf",
         "\"weight\" value=\"0.5\"",
-        "reflectance\" value=\"0.6, 0.6, 0.6\"",
+        "<spectrum name=\"reflectance\" value=\"0.6\"/>",
         "\"alpha\" value=\"0.25\"",
-        "\"eta\" value=\"1.7, 1.7, 1.7\"",
-        "\"k\" value=\"0, 0, 0\"",
-        "specular_reflectance\" value=\"1.6, 1.6, 1.6\"",
+        "<spectrum name=\"eta\" value=\"1.7\"/>",
+        "<spectrum name=\"k\" value=\"0\"/>",
+        "<spectrum name=\"specular_reflectance\" value=\"1.6\"/>",
         "(exact)",
     ] {
         assert!(x.contains(want), "lacks {want}:\n{x}");
     }
     assert_eq!(x.matches("<bsdf").count(), x.matches("</bsdf>").count());
-    let p = export::pbrt(&m);
+    let p = export::pbrt(&brdfit::fit::Colour::grey(&m));
     assert!(
         p.contains("height-correlated") && !p.contains("(exact)") && p.contains("\"mix\""),
         "{p}"
     );
-    let b = export::brdf_explorer(&m);
+    let b = export::brdf_explorer(&brdfit::fit::Colour::grey(&m)).unwrap();
     assert!(b.contains("float alpha 0.001 1 0.25"), "{b}");
     assert!(b.contains("float G = 4.0 /"), "{b}");
 }

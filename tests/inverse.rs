@@ -34,6 +34,7 @@ fn scene(shape: Shape) -> Scene {
             name: "white".into(),
             model: Model::new(ModelKind::Lambert, Distribution::D3, &[1.0]).unwrap(),
             color: DVec3::ONE,
+            specular: DVec3::ONE,
             checker: None,
             ks: 0.0,
             kt: 0.0,

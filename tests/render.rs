@@ -812,3 +812,99 @@ fn jittered_samples_remove_the_regular_grids_bias_on_an_aligned_edge() {
         assert_eq!(e.abs() < 0.02, jittered, "{aa}: row mean error {e}");
     }
 }
+
+/// Issue 24, point 1: a scene material `fit = ` an RGB fit file renders in colour: each
+/// channel of the image equals that channel of the same scene rendered with the channel's
+/// own model (`model = "ggx-smith"`, its ps and pd), so the colour decomposition (one lobe,
+/// per-channel ps and pd) is exact. `fit_model` and `fit_channel` pick from the file.
+#[test]
+fn a_colour_fit_renders_each_channel_with_its_own_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let chans = [("r", 0.2, 0.8), ("g", 0.4, 0.4), ("b", 0.6, 0.1)];
+    let obj = |model: &str, c: &str, params: String, bic: f64| {
+        format!(
+            r#"{{"model": "{model}", "distribution": "d3", "channel": "{c}", "params": {params}, "cost": 1, "rmse": 0.1, "samples_used": 10, "bic": {bic}, "aic": 1, "n_free": 4}}"#
+        )
+    };
+    let mut fits: Vec<String> = chans
+        .iter()
+        .map(|(c, ps, pd)| {
+            obj(
+                "ggx-smith",
+                c,
+                format!(r#"{{"alpha": 0.3, "n": 1.5, "ps": {ps}, "pd": {pd}}}"#),
+                -100.0,
+            )
+        })
+        .collect();
+    fits.extend(
+        chans
+            .iter()
+            .map(|(c, _, pd)| obj("lambert", c, format!(r#"{{"pd": {pd}}}"#), 50.0)),
+    );
+    std::fs::write(
+        dir.path().join("rgb.json"),
+        format!(r#"{{"fits": [{}]}}"#, fits.join(",")),
+    )
+    .unwrap();
+    let text = |material: &str| {
+        format!(
+            r#"
+[camera]
+eye = [0.0, 1.0, 4.0]
+target = [0.0, 0.0, 0.0]
+fov = 40.0
+width = 33
+height = 33
+[antialias]
+mode = "none"
+[[lights]]
+kind = "directional"
+direction = [0.3, 1.0, 1.0]
+intensity = 2.0
+[materials.m]
+{material}
+[[objects]]
+kind = "sphere"
+center = [0.0, 0.0, 0.0]
+radius = 1.0
+material = "m"
+"#
+        )
+    };
+    let render = |material: &str| {
+        parse_scene(&text(material), dir.path())
+            .unwrap()
+            .render(&|| {})
+    };
+    let colour = render(r#"fit = "rgb.json""#);
+    let mut lit = 0;
+    for (k, (_, ps, pd)) in chans.iter().enumerate() {
+        let own = render(&format!(
+            "model = \"ggx-smith\"\nparams = {{ alpha = 0.3, n = 1.5, ps = {ps}, pd = {pd} }}"
+        ));
+        for (a, b) in colour.pixels.iter().zip(&own.pixels) {
+            assert!(
+                (a[k] - b[k]).abs() <= 1e-6 * b[k].abs().max(1e-3),
+                "channel {k}: {} against {}",
+                a[k],
+                b[k]
+            );
+            lit += (b[k] > 0.0) as usize;
+        }
+    }
+    assert!(lit > 500, "the sphere is lit: {lit}");
+    // The file's lambert fits on request, one channel on request.
+    let lam = render("fit = \"rgb.json\"\nfit_model = \"lambert\"\nfit_channel = \"b\"");
+    let own = render("model = \"lambert\"\nparams = { pd = 0.1 }");
+    assert_eq!(lam.pixels, own.pixels);
+    // A channel the file lacks is refused with the key named.
+    let e = parse_scene(&text("fit = \"rgb.json\"\nfit_channel = \"y\""), dir.path())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("no fit of channel y") && e.contains("fit_channel"),
+        "{e}"
+    );
+}

@@ -117,6 +117,34 @@ pub(crate) struct LoadArgs {
     pub(crate) trust_units: bool,
 }
 
+/// Which fit of a fit file a consumer uses (`export`, `plot residuals|slice`, `inverse`,
+/// `render fig7`).
+#[derive(Args, Debug, Clone, Default)]
+pub(crate) struct PickArgs {
+    /// The model to take from the fit file (default: its only model, or the recommended one of
+    /// a `fit --model all` file).
+    #[arg(long, value_enum)]
+    pub(crate) model: Option<ModelKind>,
+    /// Facet distribution of that model (default: d3 where the file holds several).
+    #[arg(long, value_enum)]
+    pub(crate) distribution: Option<Distribution>,
+    /// Use a fit marked not usable (failed verification, KKT check, pd > 1, …) anyway.
+    #[arg(long)]
+    pub(crate) allow_unusable: bool,
+}
+
+impl PickArgs {
+    /// What to ask of the fit file, with the channel from the command's `--channel`.
+    pub(crate) fn want(&self, channel: Option<&str>) -> brdfit::fit::Want {
+        brdfit::fit::Want {
+            model: self.model,
+            dist: self.distribution,
+            channel: channel.map(str::to_string),
+            allow_unusable: self.allow_unusable,
+        }
+    }
+}
+
 #[derive(Args, Debug, Clone)]
 pub(crate) struct ModelArgs {
     /// Model.

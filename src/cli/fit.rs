@@ -5,30 +5,42 @@ use anyhow::{Result, anyhow};
 use brdfit::model::{Distribution, ModelKind};
 use std::path::Path;
 
-/// Read a fit JSON (one fit, or the first of `fits`) into its model(s) with labels.
+/// Read a fit JSON strictly (one fit, or several under `fits`); the error names the file.
 pub(crate) fn read_fits(path: &Path) -> Result<Vec<brdfit::fit::FitResult>> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("{}: cannot read the fit JSON", path.display()))?;
-    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
-        anyhow!(
-            "{}: not valid JSON ({e})\n  fix: give a file written by brdfit fit --json",
-            path.display()
-        )
-    })?;
-    let list: Vec<serde_json::Value> = match v.get("fits").and_then(|f| f.as_array()) {
-        Some(a) => a.clone(),
-        None => vec![v],
-    };
-    list.iter()
-        .map(|f| {
-            brdfit::fit::FitResult::from_json(f).map_err(|e| {
-                anyhow!(
-                    "{}: {e}\n  fix: give a file written by brdfit fit --json",
-                    path.display()
-                )
-            })
-        })
-        .collect()
+    brdfit::fit::read_fit_file(&text).map_err(|e| anyhow!("{}: {e}", path.display()))
+}
+
+/// Say on stderr what was picked for the user from `path`.
+fn say_notes(path: &Path, p: &brdfit::fit::Picked) {
+    if !quiet() {
+        for n in &p.notes {
+            eprintln!("note: {}: {n}", path.display());
+        }
+    }
+}
+
+/// The fits of `path` that `want` asks for, one model, every channel asked (see
+/// [`brdfit::fit::pick`]); the notes go to stderr.
+pub(crate) fn pick_fits(path: &Path, want: &brdfit::fit::Want) -> Result<brdfit::fit::Picked> {
+    let p = brdfit::fit::pick(&read_fits(path)?, want)
+        .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    say_notes(path, &p);
+    Ok(p)
+}
+
+/// One fit of `path` for a consumer of one channel (the data's, when given; see
+/// [`brdfit::fit::pick_one`]); the notes go to stderr.
+pub(crate) fn pick_fit(
+    path: &Path,
+    want: &brdfit::fit::Want,
+    data_channel: Option<&str>,
+) -> Result<brdfit::fit::PickedChannel> {
+    let mut p = brdfit::fit::pick_one(&read_fits(path)?, want, data_channel)
+        .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    say_notes(path, &p);
+    Ok(p.channels.remove(0))
 }
 
 pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {

@@ -31,6 +31,11 @@ pub(crate) struct InverseArgs {
     /// Take Cd = pd·E/π and Ca = pd·A from a fit JSON with --irradiance E and --ambient A.
     #[arg(long)]
     pub(crate) fit: Option<PathBuf>,
+    #[command(flatten)]
+    pub(crate) pick: PickArgs,
+    /// With --fit: the channel to take from a fit file of several.
+    #[arg(long)]
+    pub(crate) channel: Option<String>,
     /// Light irradiance E (with --fit).
     #[arg(long, default_value_t = std::f64::consts::PI)]
     pub(crate) irradiance: f64,
@@ -71,6 +76,8 @@ pub(crate) fn run_inverse(args: InverseArgs) -> Result<()> {
         ca,
         cd,
         fit,
+        pick,
+        channel,
         irradiance,
         ambient,
         pixel_size,
@@ -100,7 +107,7 @@ pub(crate) fn run_inverse(args: InverseArgs) -> Result<()> {
     let (cd, ca) = match (cd, &fit) {
         (Some(cd), _) => (cd, ca),
         (None, Some(f)) => {
-            let m = read_fits(f)?.remove(0).model_for(0);
+            let m = pick_fit(f, &pick.want(channel.as_deref()), None)?.model;
             let pd = m.pd();
             (pd * irradiance / std::f64::consts::PI, pd * ambient)
         }

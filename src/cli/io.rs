@@ -116,28 +116,54 @@ pub(crate) struct ExportArgs {
     /// Output file (text formats go to standard output when omitted).
     #[arg(short, long)]
     pub(crate) output: Option<PathBuf>,
+    #[command(flatten)]
+    pub(crate) pick: PickArgs,
+    /// The channel to export from a fit file of several (default: all of an RGB file as
+    /// colour; the recommended channel otherwise).
+    #[arg(long)]
+    pub(crate) channel: Option<String>,
 }
 
 /// `brdfit export` (see its help).
 pub(crate) fn run_export(args: ExportArgs) -> Result<()> {
-    let ExportArgs { fit, to, output } = args;
+    let ExportArgs {
+        fit,
+        to,
+        output,
+        pick,
+        channel,
+    } = args;
     use brdfit::export::{self, ExportFormat};
     use clap::ValueEnum;
     let fmt = to;
     let to = to
         .to_possible_value()
         .map_or(String::new(), |v| v.get_name().to_string());
-    let r = read_fits(&fit)?.remove(0);
-    let m = r.model_for(0);
+    let picked = pick_fits(&fit, &pick.want(channel.as_deref()))?;
+    let c = picked
+        .colour()
+        .map_err(|e| anyhow!("{}: {e}", fit.display()))?;
+    if !quiet() {
+        for n in &c.notes {
+            eprintln!("note: {}: {n}", fit.display());
+        }
+    }
     let id = fit
         .file_stem()
         .map_or("brdfit".into(), |s| s.to_string_lossy().into_owned());
+    let fail = |e: String| anyhow!("{}: {e}", fit.display());
     let text = match fmt {
-        ExportFormat::Mitsuba => Some(export::mitsuba(&m, &id)),
-        ExportFormat::Pbrt => Some(export::pbrt(&m)),
-        ExportFormat::BrdfExplorer => Some(export::brdf_explorer(&m)),
+        ExportFormat::Mitsuba => Some(export::mitsuba(&c, &id).map_err(fail)?),
+        ExportFormat::Pbrt => Some(export::pbrt(&c)),
+        ExportFormat::BrdfExplorer => Some(export::brdf_explorer(&c).map_err(fail)?),
         ExportFormat::Merl | ExportFormat::Csv => None,
     };
+    if !quiet()
+        && let Some(t) = &text
+        && let Some(line) = t.lines().find(|l| l.trim_start().starts_with("refitted:"))
+    {
+        eprintln!("note: {}: {}", fit.display(), line.trim());
+    }
     match (text, output) {
         (Some(t), None) => print(&t),
         (Some(t), Some(o)) => {
@@ -149,9 +175,9 @@ pub(crate) fn run_export(args: ExportArgs) -> Result<()> {
         (None, Some(o)) => {
             refuse_input(&o, &[&fit])?;
             if fmt == ExportFormat::Merl {
-                data::merl::write_merl(&export::merl_dataset(&m), &o)?;
+                data::merl::write_merl(&export::merl_dataset(&c), &o)?;
             } else {
-                data::write_csv(&export::grid_dataset(&m), &o)?;
+                data::write_csv(&export::grid_dataset(&c), &o)?;
             }
             wrote(&o);
             Ok(())

@@ -210,6 +210,11 @@ pub(crate) enum Command {
         /// pixel).
         #[arg(long)]
         allow_large_image: bool,
+        #[command(flatten)]
+        pick: PickArgs,
+        /// fig7: the channel to take from fit files of several.
+        #[arg(long)]
+        channel: Option<String>,
     },
     /// Export a fit to another renderer or format: mitsuba, pbrt, brdf-explorer, merl, csv.
     #[command(
@@ -276,11 +281,15 @@ pub(crate) fn run(cli: Cli) -> Result<()> {
             mgo,
             res,
             allow_large_image,
+            pick,
+            channel,
         } => run_render(
             &scene,
             &output,
             aluminium.as_deref(),
             mgo.as_deref(),
+            &pick,
+            channel.as_deref(),
             (res, allow_large_image),
             quiet(),
         ),

@@ -17,6 +17,9 @@ pub(crate) enum PlotCommand {
         fit: Vec<PathBuf>,
         #[command(flatten)]
         model: OptModelArgs,
+        /// Draw a fit marked not usable anyway.
+        #[arg(long)]
+        allow_unusable: bool,
         /// Measured data whose in-plane samples are overlaid.
         #[arg(long)]
         data: Option<PathBuf>,
@@ -56,6 +59,8 @@ pub(crate) enum PlotCommand {
         /// The data it was fitted to.
         data: PathBuf,
         #[command(flatten)]
+        pick: PickArgs,
+        #[command(flatten)]
         load: LoadArgs,
         /// Output directory.
         #[arg(short, long)]
@@ -71,6 +76,8 @@ pub(crate) enum PlotCommand {
         fit: PathBuf,
         /// The data.
         data: PathBuf,
+        #[command(flatten)]
+        pick: PickArgs,
         #[command(flatten)]
         load: LoadArgs,
         /// Bins per axis.
@@ -91,6 +98,9 @@ pub(crate) enum PlotCommand {
         fit: Option<PathBuf>,
         #[command(flatten)]
         model: OptModelArgs,
+        /// Draw a fit marked not usable anyway.
+        #[arg(long)]
+        allow_unusable: bool,
         /// Measured data: its albedo is estimated at each θi where its samples cover and
         /// resolve the outgoing hemisphere (see the README).
         #[arg(long)]
@@ -117,6 +127,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
         PlotCommand::Lobe {
             fit,
             model,
+            allow_unusable,
             data,
             theta_i,
             quantity,
@@ -133,39 +144,20 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                 }
             };
             let ds = data.as_ref().map(|d| load.load(d)).transpose()?;
-            // The plotted channel: the data's first (after --channel), whose fit is drawn from
-            // a fit file of several channels (else that file's first).
+            // With --fit and no --set, --model picks the fit file's model.
+            let want = fit_want(&model, &fit, &load, ds.is_some(), allow_unusable);
             let plotted = ds.as_ref().map(|d| d.channels[0].name.clone());
             let mut models = Vec::new();
             for f in &fit {
-                let fits = read_fits(f)?;
-                let pick = fits
-                    .iter()
-                    .position(|r| Some(&r.channel) == plotted.as_ref())
-                    .unwrap_or(0);
-                if let Some(r) = fits.get(pick) {
-                    let channel = match r.channel.as_str() {
-                        "" | "value" | "brdf" | "brdf_cos" | "rfactor" => String::new(),
-                        c => format!(" ({c})"),
-                    };
-                    models.push((format!("{} fit{channel}", r.label()), r.model_for(0)));
-                }
-                if fits.len() > 1 && !quiet() {
-                    eprintln!(
-                        "note: {} holds fits of {} channels; drawing the one of channel {} ({}); \
-                         choose another with --channel",
-                        f.display(),
-                        fits.len(),
-                        fits[pick].channel,
-                        if plotted.as_ref() == Some(&fits[pick].channel) {
-                            "the data's channel"
-                        } else {
-                            "the file's first"
-                        }
-                    );
-                }
+                let r = pick_fit(f, &want, plotted.as_deref())?;
+                let channel = if brdfit::fit::is_unnamed_channel(&r.channel) {
+                    String::new()
+                } else {
+                    format!(" ({})", r.channel)
+                };
+                models.push((format!("{} fit{channel}", r.fit.label()), r.model));
             }
-            if let Some(m) = model.build()? {
+            if let Some(m) = analytic(&model, &fit)? {
                 models.push((format!("{m}"), m));
             }
             if models.is_empty() && data.is_none() {
@@ -197,18 +189,20 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
         PlotCommand::Residuals {
             fit,
             data,
+            pick,
             load,
             output,
         } => {
-            let r = read_fits(&fit)?.remove(0);
             let ds = load.load(&data)?;
+            let r = pick_fit(&fit, &pick.want(None), Some(&ds.channels[0].name))?;
             let pts = plot::residual_points(
                 &ds,
                 0,
-                &r.model_for(0),
-                r.loss == brdfit::fit::problem::Loss::Log,
+                &r.model,
+                r.fit.loss == brdfit::fit::problem::Loss::Log,
             );
-            for (name, chart) in plot::residual_charts(&r.label(), &pts) {
+            let label = format!("{}, channel {}", r.fit.label(), ds.channels[0].name);
+            for (name, chart) in plot::residual_charts(&label, &pts) {
                 save_chart(&chart, &output.join(name))?;
             }
             Ok(())
@@ -216,15 +210,21 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
         PlotCommand::Slice {
             fit,
             data,
+            pick,
             load,
             bins,
             output,
         } => {
-            let r = read_fits(&fit)?.remove(0);
             let ds = load.load(&data)?;
-            let (d, f) = plot::slice_grids(&ds, 0, &r.model_for(0), bins.clamp(2, 360));
+            let r = pick_fit(&fit, &pick.want(None), Some(&ds.channels[0].name))?;
+            let (d, f) = plot::slice_grids(&ds, 0, &r.model, bins.clamp(2, 360));
             let chart = plot::SliceChart {
-                title: format!("θh × θd slice: {} against {}", data.display(), r.label()),
+                title: format!(
+                    "θh × θd slice: {} against {}, channel {}",
+                    data.display(),
+                    r.fit.label(),
+                    ds.channels[0].name
+                ),
                 n: bins.clamp(2, 360),
                 images: [d, f],
             };
@@ -234,21 +234,26 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
         PlotCommand::Albedo {
             fit,
             model,
+            allow_unusable,
             data,
             load,
             output,
         } => {
-            let (label, m) = match (fit, model.build()?) {
+            let ds = data.as_ref().map(|d| load.load(d)).transpose()?;
+            let fits: Vec<PathBuf> = fit.into_iter().collect();
+            let want = fit_want(&model, &fits, &load, ds.is_some(), allow_unusable);
+            let (label, m) = match (fits.first(), analytic(&model, &fits)?) {
                 (Some(f), _) => {
-                    let r = read_fits(&f)?.remove(0);
-                    (r.label(), r.model_for(0))
+                    let plotted = ds.as_ref().map(|d| d.channels[0].name.clone());
+                    let r = pick_fit(f, &want, plotted.as_deref())?;
+                    (format!("{}, channel {}", r.fit.label(), r.channel), r.model)
                 }
                 (None, Some(m)) => (m.kind.to_string(), m),
                 (None, None) => bail!("no model\n  fix: give --fit FILE or --model with --set"),
             };
-            let measured = match &data {
-                Some(d) => {
-                    let est = plot::measured_albedo(&load.load(d)?, 0);
+            let measured = match (&data, &ds) {
+                (Some(d), Some(ds)) => {
+                    let est = plot::measured_albedo(ds, 0);
                     if est.is_empty() {
                         eprintln!(
                             "note: the samples of {} do not cover and resolve the outgoing hemisphere at any θi (6 × 16 cells of equal projected solid angle, each with two samples or more, none outweighing the rest of its cell, and the same value with the cells turned by half a sector): no albedo estimate from them",
@@ -257,7 +262,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                     }
                     est
                 }
-                None => vec![],
+                _ => vec![],
             };
             let (chart, pts) = plot::albedo_chart(&label, &m, &measured);
             save_chart(&chart, &base(&output))?;
@@ -274,4 +279,35 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// What `plot lobe|albedo` ask of their fit files: `--model` (and `--distribution`) pick the
+/// file's model when no `--set` makes them an analytic model; `--channel` picks the channel
+/// when no data file takes it.
+fn fit_want(
+    model: &OptModelArgs,
+    fit: &[PathBuf],
+    load: &LoadArgs,
+    with_data: bool,
+    allow_unusable: bool,
+) -> brdfit::fit::Want {
+    let picks = !fit.is_empty() && model.set.is_empty();
+    brdfit::fit::Want {
+        model: model.model.filter(|_| picks),
+        dist: model.model.filter(|_| picks).map(|_| model.distribution),
+        channel: if with_data {
+            None
+        } else {
+            load.channel.clone()
+        },
+        allow_unusable,
+    }
+}
+
+/// The analytic model of `--model … --set …`, unless `--model` picks a fit file's model.
+fn analytic(model: &OptModelArgs, fit: &[PathBuf]) -> Result<Option<brdfit::model::Model>> {
+    if !fit.is_empty() && model.set.is_empty() {
+        return Ok(None);
+    }
+    model.build()
 }

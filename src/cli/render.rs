@@ -5,19 +5,29 @@ use anyhow::{Result, anyhow, bail};
 use brdfit::model::{Model, ModelKind};
 use std::path::Path;
 
-pub(crate) fn ts_model_from(fit: Option<&Path>, default: Model) -> Result<Model> {
+/// The Torrance–Sparrow model of a fit file for Figure 7 (`default` without one): the file's
+/// torrance-sparrow fit of the channel `pick` and `channel` ask for.
+pub(crate) fn ts_model_from(
+    fit: Option<&Path>,
+    default: Model,
+    pick: &PickArgs,
+    channel: Option<&str>,
+) -> Result<Model> {
     match fit {
         None => Ok(default),
         Some(p) => {
-            let r = read_fits(p)?.remove(0);
-            if r.model != ModelKind::TorranceSparrow {
+            if pick.model.is_some_and(|m| m != ModelKind::TorranceSparrow) {
                 bail!(
-                    "{}: fig7 needs a torrance-sparrow fit, this is {}\n  fix: fit with --model torrance-sparrow",
-                    p.display(),
-                    r.model
+                    "fig7 draws Blinn's Torrance–Sparrow objects, not {}\n  fix: leave out --model (or give --model torrance-sparrow)",
+                    pick.model.map_or(String::new(), |m| m.to_string())
                 );
             }
-            Ok(r.model_for(0))
+            let mut want = pick.want(channel);
+            want.model = Some(ModelKind::TorranceSparrow);
+            let r = pick_fit(p, &want, None).map_err(|e| {
+                anyhow::anyhow!("{e}\n  (fig7 needs a torrance-sparrow fit: brdfit fit DATA --model torrance-sparrow --json OUT)")
+            })?;
+            Ok(r.model)
         }
     }
 }
@@ -27,6 +37,8 @@ pub(crate) fn run_render(
     output: &Path,
     al: Option<&Path>,
     mgo: Option<&Path>,
+    pick: &PickArgs,
+    channel: Option<&str>,
     (res, allow_large): (u32, bool),
     quiet: bool,
 ) -> Result<()> {
@@ -36,8 +48,8 @@ pub(crate) fn run_render(
     }
     if scene == "fig7" {
         render::check_image_size(res, res, allow_large).map_err(|e| anyhow!("--res {res}: {e}"))?;
-        let al = ts_model_from(al, Model::blinn_aluminium())?;
-        let mgo = ts_model_from(mgo, Model::blinn_mgo())?;
+        let al = ts_model_from(al, Model::blinn_aluminium(), pick, channel)?;
+        let mgo = ts_model_from(mgo, Model::blinn_mgo(), pick, channel)?;
         for (m, flag) in [(&al, "--aluminium"), (&mgo, "--mgo")] {
             render::scene::fig7_scene(*m, render::scene::Lighting::Front, res)
                 .check_inputs()

@@ -13,6 +13,7 @@
 //!    determine.
 
 mod argmin_peer;
+mod fitfile;
 mod json;
 // Public for the binary and the integration tests (separate crates), not library API.
 #[doc(hidden)]
@@ -26,6 +27,10 @@ use crate::lanes::{self, LANES};
 use crate::model::Geometry;
 use crate::model::{Distribution, Model, ModelKind, ParamSpec, Role, Scale, readable};
 use crate::setting::Setting;
+pub use fitfile::{
+    Colour, FitFileError, Picked, PickedChannel, Want, is_unnamed_channel, parse_strict, pick,
+    pick_one, read_fit_file, same_channel,
+};
 pub use lsq::{Limits, Method};
 use lsq::{Problem, Robust, Solution};
 pub use problem::Loss;
@@ -309,12 +314,19 @@ impl FitResult {
         serde_json::to_value(self).expect("a fit serialises")
     }
 
-    /// Read a fit back from its JSON object; the JSON of earlier versions (standard errors as
-    /// an object, no certificate) is read as far as it goes.
-    pub fn from_json(v: &serde_json::Value) -> Result<FitResult, String> {
+    /// Read a fit back from its JSON object, checked first: only known keys, a known model and
+    /// distribution, and every parameter of the model present once, finite and within its
+    /// declared bounds ([`ParamSpec::admits`]); the error names the key and the fix. The JSON
+    /// of earlier versions (standard errors as an object, no certificate) is read as far as it
+    /// goes. Duplicate keys are lost in a `Value`: read text with [`read_fit_file`].
+    pub fn from_json(v: &serde_json::Value) -> Result<FitResult, FitFileError> {
+        fitfile::check_fit_object(v)?;
         match serde_json::from_value::<FitResult>(v.clone()) {
             Ok(f) => Ok(f),
-            Err(e) => Self::from_lenient_json(v).map_err(|m| format!("{m} ({e})")),
+            Err(e) => Self::from_lenient_json(v).map_err(|m| FitFileError {
+                message: format!("{m} ({e})"),
+                fix: "give a file written by brdfit fit --json".into(),
+            }),
         }
     }
 

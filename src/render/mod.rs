@@ -431,8 +431,11 @@ pub struct Material {
     pub name: String,
     /// The local reflection model (f_r, with its pd).
     pub model: Model,
-    /// Diffuse colour (multiplies the pd term; the highlight stays white).
+    /// Diffuse colour (multiplies the pd term).
     pub color: DVec3,
+    /// Specular colour (multiplies the ps term; white but for a colour fit, whose channels'
+    /// ps it holds).
+    pub specular: DVec3,
     /// Optional checker on the diffuse colour.
     pub checker: Option<Checker>,
     /// Whitted's ks: weight of the mirror ray.
@@ -841,7 +844,7 @@ impl Scene {
                 let g = Geometry::from_vectors(n.to_array(), ldir.to_array(), e.to_array());
                 (pd * g.nl, m.specular(&g, uv))
             };
-            out += (albedo * i_d + DVec3::splat(i_s)) * irr * std::f64::consts::FRAC_1_PI;
+            out += (albedo * i_d + m.specular * i_s) * irr * std::f64::consts::FRAC_1_PI;
         }
         if depth + 1 < self.max_depth {
             if m.ks > 0.0 && weight * m.ks >= self.min_weight {

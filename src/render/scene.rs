@@ -125,6 +125,12 @@ struct MaterialSpec {
     distribution: Option<String>,
     params: Option<BTreeMap<String, f64>>,
     fit: Option<String>,
+    /// With `fit`: the model to take from a file of several (`fit --model all`).
+    fit_model: Option<String>,
+    /// With `fit`: the channel to take (default: every channel, as colour).
+    fit_channel: Option<String>,
+    /// With `fit`: use a fit marked not usable.
+    fit_allow_unusable: Option<bool>,
     color: Option<ColorSpec>,
     checker: Option<CheckerSpec>,
     ks: Option<f64>,
@@ -580,6 +586,8 @@ fn names_of(m: &[(String, MaterialSpec)]) -> String {
 
 fn material(name: &str, m: &MaterialSpec, dir: &Path) -> Result<Material> {
     let key = |k: &str| format!("`materials.{name}.{k}`");
+    // A colour fit: the lobe with ps = pd = 1, its channels' pd and ps as colours.
+    let mut fit_colour = (DVec3::ONE, DVec3::ONE);
     let model = match (&m.fit, &m.model) {
         (Some(_), Some(_)) => bail!(
             "material {name} has both `model` and `fit`\n  fix: keep one: the fit file gives the model and its parameters"
@@ -587,27 +595,24 @@ fn material(name: &str, m: &MaterialSpec, dir: &Path) -> Result<Material> {
         (Some(fit), None) => {
             not_for(
                 &format!("material {name}"),
-                &[
-                    ("distribution", m.distribution.is_some()),
-                    ("params", m.params.is_some()),
-                ],
-                "the fit file gives the distribution and the parameters",
+                &[("params", m.params.is_some())],
+                "the fit file gives the parameters (`distribution` and `fit_model` pick one fit of several)",
             )?;
             let p = dir.join(fit);
-            let text = crate::input::read_to_string_limited(&p, crate::input::Input::FitJson)
-                .with_context(|| format!("material {name}"))?;
-            let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
-                anyhow!(
-                    "material {name}: {} is not JSON: {e}\n  fix: give a file written by brdfit fit --json",
-                    p.display()
-                )
-            })?;
-            let v = v.get("fits").and_then(|f| f.get(0)).cloned().unwrap_or(v);
-            crate::fit::FitResult::from_json(&v)
-                .map_err(|e| anyhow!("material {name}: {}: {e}", p.display()))?
-                .model_for(0)
+            let (model, diffuse, specular) = fit_material(name, m, &p)?;
+            fit_colour = (diffuse, specular);
+            model
         }
         (None, Some(kind)) => {
+            not_for(
+                &format!("material {name}"),
+                &[
+                    ("fit_model", m.fit_model.is_some()),
+                    ("fit_channel", m.fit_channel.is_some()),
+                    ("fit_allow_unusable", m.fit_allow_unusable.is_some()),
+                ],
+                "it picks from a fit file, and this material gives `model`",
+            )?;
             let kind = ModelKind::parse(kind).ok_or_else(|| {
                 anyhow!(
                     "material {name}: unknown model '{kind}'\n  fix: use one of {}",
@@ -659,7 +664,8 @@ fn material(name: &str, m: &MaterialSpec, dir: &Path) -> Result<Material> {
         color: match &m.color {
             Some(c) => color(&key("color"), c, 1.0)?,
             None => DVec3::ONE,
-        },
+        } * fit_colour.0,
+        specular: fit_colour.1,
         checker: match &m.checker {
             None => None,
             Some(c) => Some(Checker {
@@ -674,6 +680,69 @@ fn material(name: &str, m: &MaterialSpec, dir: &Path) -> Result<Material> {
         roughness,
         measured: None,
     })
+}
+
+/// A material's fit: the file read strictly, the model and channel picked by `fit_model` and
+/// `fit_channel` (see [`crate::fit::pick`]); several channels become colour (the shared lobe
+/// with ps = pd = 1, and their pd and ps as diffuse and specular colours). What was picked
+/// for the user and any colour compromise are said on stderr.
+fn fit_material(name: &str, m: &MaterialSpec, p: &Path) -> Result<(Model, DVec3, DVec3)> {
+    use crate::fit::{Want, pick, read_fit_file};
+    let text = crate::input::read_to_string_limited(p, crate::input::Input::FitJson)
+        .with_context(|| format!("material {name}: cannot read fit {}", p.display()))?;
+    let at = |e: &dyn std::fmt::Display| anyhow!("material {name}: {}: {e}", p.display());
+    let fits = read_fit_file(&text).map_err(|e| at(&e))?;
+    let model = match &m.fit_model {
+        None => None,
+        Some(k) => Some(ModelKind::parse(k).ok_or_else(|| {
+            anyhow!(
+                "material {name}: fit_model: unknown model '{k}'\n  fix: use one of {}",
+                ModelKind::names()
+            )
+        })?),
+    };
+    let want = Want {
+        model,
+        dist: m.distribution.as_deref().and_then(Distribution::parse),
+        channel: m.fit_channel.clone(),
+        allow_unusable: m.fit_allow_unusable.unwrap_or(false),
+    };
+    let picked = pick(&fits, &want).map_err(|e| {
+        at(&e
+            .to_string()
+            .replace("--allow-unusable", "fit_allow_unusable = true")
+            .replace("--model", "fit_model")
+            .replace("--channel", "fit_channel"))
+    })?;
+    let colour = picked
+        .colour()
+        .map_err(|e| at(&e.to_string().replace("with --channel", "with fit_channel")))?;
+    for n in picked.notes.iter().chain(&colour.notes) {
+        eprintln!(
+            "note: material {name}: {}: {}",
+            p.display(),
+            n.replace("--model", "fit_model")
+                .replace("--channel", "fit_channel")
+        );
+    }
+    if colour.is_grey() {
+        return Ok((colour.model, DVec3::ONE, DVec3::ONE));
+    }
+    let lobe = colour.channel_model(0);
+    let mut unit = lobe;
+    for (i, spec) in lobe.kind.params(lobe.dist).iter().enumerate() {
+        if matches!(
+            spec.role,
+            crate::model::Role::Diffuse | crate::model::Role::Specular
+        ) {
+            unit.p[i] = 1.0;
+        }
+    }
+    Ok((
+        unit,
+        DVec3::from_array(colour.pd),
+        DVec3::from_array(colour.ps),
+    ))
 }
 
 /// Texture axes of a plane: u follows world x (z when the normal is along x), v follows world
@@ -800,6 +869,7 @@ pub fn fig7_scene(model: Model, lighting: Lighting, res: u32) -> Scene {
             name: "test object".into(),
             model,
             color: DVec3::ONE,
+            specular: DVec3::ONE,
             checker: None,
             ks: 0.0,
             kt: 0.0,
