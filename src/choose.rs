@@ -7,9 +7,11 @@
 //! 2. the light/eye configurations of the object's lit pixels are collected
 //!    ([`Scene::lit_configurations`]), binned, and the measurement is looked up there, with the
 //!    pixel counts as weights: the scene-weighted samples;
-//! 3. every candidate model is fitted to those samples with the usual fitter (its loss and
-//!    verification), rendered, and compared with the reference by LDR-ꟻLIP, ΔE_ITP and RMSE
-//!    ([`crate::render::compare`]) over the object's pixels;
+//! 3. every candidate model is fitted to those samples with the usual fitter (its loss,
+//!    verification and physical checks), rendered, and compared with the reference by
+//!    LDR-ꟻLIP, ΔE_ITP and RMSE ([`crate::render::compare`]) over the object's pixels; its fit
+//!    to all the data is rendered and compared too, and the row judges the one of the two that
+//!    renders closer among the usable ones ([`FitUsed`]);
 //! 4. the chosen model is the simplest (fewest parameters, then the cheapest to render, in
 //!    [`RENDER_COST_ORDER`]) whose error stays within the threshold.
 //!
@@ -169,13 +171,39 @@ impl Default for ChooseOptions {
     }
 }
 
-/// One candidate in one case.
+/// Which of a candidate's two fits a row judges: the one fitted to the scene-weighted samples
+/// or the one fitted to all the data.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FitUsed {
+    /// The fit to the scene-weighted samples.
+    SceneWeighted,
+    /// The fit to all the data.
+    Global,
+}
+
+impl FitUsed {
+    /// The JSON and table spelling: `scene-weighted` or `global`.
+    pub fn name(self) -> &'static str {
+        match self {
+            FitUsed::SceneWeighted => "scene-weighted",
+            FitUsed::Global => "global",
+        }
+    }
+}
+
+/// One candidate in one case. Each model is fitted twice, to the scene-weighted samples and
+/// to all the data; both are rendered and the row judges the one that renders closer to the
+/// reference among the usable ones (`used`; the scene-weighted fit on a tie).
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct ModelRow {
     /// Model name as `--model` spells it (`torrance-sparrow-d3`).
     pub model: String,
     /// Facet distribution (`d3` for models without one).
     pub distribution: Distribution,
+    /// Which fit the row's errors, image and choice are of.
+    #[serde(default = "scene_weighted")]
+    pub used: FitUsed,
     /// Parameters of the scene-weighted fit.
     #[serde(with = "ordered_map")]
     pub params: Vec<(String, f64)>,
@@ -184,7 +212,7 @@ pub struct ModelRow {
     pub global_params: Vec<(String, f64)>,
     /// BIC of the fit to all the data.
     pub bic: f64,
-    /// Mean LDR-ꟻLIP over the whole image.
+    /// The errors below are those of the fit `used`. Mean LDR-ꟻLIP over the whole image.
     pub flip_mean: f64,
     /// 99th percentile of LDR-ꟻLIP over the object.
     pub flip_p99: f64,
@@ -196,7 +224,10 @@ pub struct ModelRow {
     pub delta_e_itp_p99: f64,
     /// RMSE of linear radiance over the object.
     pub rmse: f64,
-    /// The same errors of the global fit's rendering: ꟻLIP p99 over the object.
+    /// ꟻLIP p99 over the object of the scene-weighted fit's rendering.
+    #[serde(default)]
+    pub scene_flip_p99: f64,
+    /// ꟻLIP p99 over the object of the global fit's rendering.
     pub global_flip_p99: f64,
     /// Wall time of the scene-weighted fit (s).
     pub fit_seconds: f64,
@@ -204,8 +235,18 @@ pub struct ModelRow {
     pub render_seconds: f64,
     /// Rays traced for the render.
     pub rays: u64,
-    /// Whether the scene-weighted fit passed verification and its first-order check.
+    /// Whether the fit `used` is usable (verification, first-order check, physical values).
     pub usable: bool,
+    /// Why the scene-weighted fit is not usable (empty when it is).
+    #[serde(default)]
+    pub unusable: Vec<String>,
+    /// Why the global fit is not usable (empty when it is).
+    #[serde(default)]
+    pub global_unusable: Vec<String>,
+}
+
+fn scene_weighted() -> FitUsed {
+    FitUsed::SceneWeighted
 }
 
 impl ModelRow {
@@ -402,6 +443,53 @@ fn errors(reference: &Image, test: &Image, mask: &[bool]) -> (Summary, Vec<f32>,
     )
 }
 
+/// One fit's render and its errors against the reference.
+struct Judged {
+    image: Image,
+    flip: Summary,
+    map: Vec<f32>,
+    delta_e: Summary,
+    rmse: f64,
+    usable: bool,
+}
+
+impl Judged {
+    fn new(reference: &Image, image: Image, mask: &[bool], usable: bool) -> Judged {
+        let (flip, map, delta_e, rmse) = errors(reference, &image, mask);
+        Judged {
+            image,
+            flip,
+            map,
+            delta_e,
+            rmse,
+            usable,
+        }
+    }
+
+    /// The error under `metric`.
+    fn error(&self, metric: Metric) -> f64 {
+        match metric {
+            Metric::FlipMean => compare::summarise(&self.map, &[], FLIP_LEVEL).mean,
+            Metric::FlipP99 => self.flip.p99,
+            Metric::DeltaEItpMean => self.delta_e.mean,
+            Metric::DeltaEItpP99 => self.delta_e.p99,
+            Metric::Rmse => self.rmse,
+        }
+    }
+}
+
+/// Which of a model's two fits a row judges: a usable one before one that is not, then the
+/// lower error under `metric`; the scene-weighted fit on a tie.
+fn used_fit(scene: &Judged, global: &Judged, metric: Metric) -> FitUsed {
+    let key = |j: &Judged| (!j.usable, j.error(metric));
+    let (a, b) = (key(scene), key(global));
+    if b.0 < a.0 || (b.0 == a.0 && b.1 < a.1) {
+        FitUsed::Global
+    } else {
+        FitUsed::SceneWeighted
+    }
+}
+
 /// Which rows pass, and the choice: the simplest passing row (fewest parameters, then
 /// [`RENDER_COST_ORDER`]); and the closest row (lowest error on the threshold's metric).
 pub fn pick(rows: &[ModelRow], threshold: Threshold) -> (Option<usize>, usize) {
@@ -590,34 +678,53 @@ fn run_case(
         };
         let fit_seconds = t.elapsed().as_secs_f64();
         let (img, render_seconds) = render_with(&case.scene, material(fitted.model_for(0), None));
-        let (f, fmap, d, rmse) = errors(&ref_img, &img, &mask);
         let (global_img, _) = render_with(&case.scene, material(global[k].model_for(0), None));
-        let (gf, _, _, _) = errors(&ref_img, &global_img, &mask);
+        let scene_fit = Judged::new(&ref_img, img, &mask, fitted.usable());
+        let global_fit = Judged::new(&ref_img, global_img, &mask, global[k].usable());
+        let scene_p99 = scene_fit.flip.p99;
+        let global_p99 = global_fit.flip.p99;
+        let used = used_fit(&scene_fit, &global_fit, opts.threshold.metric);
+        let judged = match used {
+            FitUsed::SceneWeighted => scene_fit,
+            FitUsed::Global => global_fit,
+        };
         let name = model_name(kind, dist);
         progress(&format!(
-            "{}: {name}: ꟻLIP p99 {:.3} (global fit {:.3}), ΔE_ITP p99 {:.2}",
-            case.name, f.p99, gf.p99, d.p99
+            "{}: {name}: ꟻLIP p99 {scene_p99:.3} scene-weighted fit{}, {global_p99:.3} global \
+             fit{}; the {} fit judged",
+            case.name,
+            if fitted.usable() { "" } else { " (not usable)" },
+            if global[k].usable() {
+                ""
+            } else {
+                " (not usable)"
+            },
+            used.name()
         ));
         rows.push(ModelRow {
             model: name.clone(),
             distribution: dist,
+            used,
             params: fitted.params.clone(),
             global_params: global[k].params.clone(),
             bic: global[k].bic,
-            flip_mean: compare::summarise(&fmap, &[], FLIP_LEVEL).mean,
-            flip_p99: f.p99,
-            flip_above: f.above,
-            delta_e_itp_mean: d.mean,
-            delta_e_itp_p99: d.p99,
-            rmse,
-            global_flip_p99: gf.p99,
+            flip_mean: compare::summarise(&judged.map, &[], FLIP_LEVEL).mean,
+            flip_p99: judged.flip.p99,
+            flip_above: judged.flip.above,
+            delta_e_itp_mean: judged.delta_e.mean,
+            delta_e_itp_p99: judged.delta_e.p99,
+            rmse: judged.rmse,
+            scene_flip_p99: scene_p99,
+            global_flip_p99: global_p99,
             fit_seconds,
             render_seconds,
-            rays: img.total_rays(),
-            usable: fitted.usable(),
+            rays: judged.image.total_rays(),
+            usable: judged.usable,
+            unusable: fitted.unusable.clone(),
+            global_unusable: global[k].unusable.clone(),
         });
-        renders.push((name, img));
-        flip_maps.push(fmap);
+        renders.push((name, judged.image));
+        flip_maps.push(judged.map);
     }
     let (chosen, closest) = pick(&rows, opts.threshold);
     Ok((
@@ -724,32 +831,42 @@ pub fn markdown(r: &ChooseResult) -> String {
 pub fn case_table(c: &CaseResult, times: bool) -> String {
     use std::fmt::Write as _;
     let mut s = String::from(
-        "| model | parameters (scene-weighted fit) | BIC (all data) | ꟻLIP mean | ꟻLIP p99 | \
-         ꟻLIP p99, global fit | ΔE_ITP mean | ΔE_ITP p99 | RMSE | rays |",
+        "| model | fit judged | parameters (scene-weighted fit) | parameters (global fit) | \
+         BIC (all data) | ꟻLIP mean | ꟻLIP p99 | ꟻLIP p99, scene-weighted fit | ꟻLIP p99, \
+         global fit | ΔE_ITP mean | ΔE_ITP p99 | RMSE | rays |",
     );
     s.push_str(if times { " fit s | render s |\n" } else { "\n" });
-    s.push_str("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    s.push_str("|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     s.push_str(if times { "---:|---:|\n" } else { "\n" });
-    for m in &c.models {
-        let params: Vec<String> = m
-            .params
-            .iter()
+    let params = |p: &[(String, f64)]| {
+        p.iter()
             .map(|(k, v)| format!("{k} {}", crate::model::readable(*v)))
-            .collect();
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let mut reasons = Vec::new();
+    for m in &c.models {
         let mark = if c.chosen.as_deref() == Some(&m.model) {
             " ✔"
         } else {
             ""
         };
+        let flag = |why: &[String]| if why.is_empty() { "" } else { " (not usable)" };
         let _ = write!(
             s,
-            "| {}{mark}{} | {} | {:.0} | {:.4} | {:.4} | {:.4} | {:.3} | {:.3} | {:.4} | {} |",
+            "| {}{mark}{} | {} | {}{} | {}{} | {:.0} | {:.4} | {:.4} | {:.4} | {:.4} | {:.3} | \
+             {:.3} | {:.4} | {} |",
             m.model,
             if m.usable { "" } else { " (not usable)" },
-            params.join(", "),
+            m.used.name(),
+            params(&m.params),
+            flag(&m.unusable),
+            params(&m.global_params),
+            flag(&m.global_unusable),
             m.bic,
             m.flip_mean,
             m.flip_p99,
+            m.scene_flip_p99,
             m.global_flip_p99,
             m.delta_e_itp_mean,
             m.delta_e_itp_p99,
@@ -760,6 +877,22 @@ pub fn case_table(c: &CaseResult, times: bool) -> String {
             let _ = write!(s, " {:.3} | {:.3} |", m.fit_seconds, m.render_seconds);
         }
         s.push('\n');
+        for (fit, why) in [
+            ("scene-weighted", &m.unusable),
+            ("global", &m.global_unusable),
+        ] {
+            if !why.is_empty() {
+                reasons.push(format!(
+                    "- {} ({fit} fit) is not usable: {}\n",
+                    m.model,
+                    why.join("; ")
+                ));
+            }
+        }
+    }
+    if !reasons.is_empty() {
+        s.push('\n');
+        s.extend(reasons);
     }
     s
 }
@@ -895,7 +1028,12 @@ fn contact_sheet(
             } else {
                 ""
             };
-            e(text(format!("{}{mark}", m.model), x0, y0 + 2, 16.0))?;
+            let global = if m.used == FitUsed::Global {
+                " (global fit)"
+            } else {
+                ""
+            };
+            e(text(format!("{}{global}{mark}", m.model), x0, y0 + 2, 16.0))?;
             e(text(
                 format!(
                     "ꟻLIP p99 {:.3}   ΔE_ITP p99 {:.2}",

@@ -636,24 +636,10 @@ pub fn blinn_figure(theta_i_deg: f64, number: u32) -> LobeChart {
     }
 }
 
-/// Directional albedo ρ(θi) = ∫ f_r cosθo dω_o, midpoint rule on a 180 × 360 grid in
-/// (θo, φo) (θo resolved more finely near a sharp peak only through the grid, so very sharp
-/// lobes are integrated less accurately).
+/// Directional albedo ρ(θi) = ∫ f_r cosθo dω_o at θi in degrees
+/// ([`crate::model::albedo::directional_albedo`]).
 pub fn albedo(model: &Model, theta_i_deg: f64) -> f64 {
-    let ti = theta_i_deg.to_radians();
-    let (nt, np) = (180, 360);
-    let dt = 0.5 * PI / nt as f64;
-    let dp = 2.0 * PI / np as f64;
-    let mut sum = 0.0;
-    for a in 0..nt {
-        let to = (a as f64 + 0.5) * dt;
-        let w = to.cos() * to.sin() * dt * dp;
-        for b in 0..np {
-            let po = (b as f64 + 0.5) * dp;
-            sum += model.brdf(&Geometry::from_angles(ti, 0.0, to, po)) * w;
-        }
-    }
-    sum
+    crate::model::albedo::directional_albedo(model, theta_i_deg.to_radians())
 }
 
 /// Rings (equal projected solid angle) and relative-azimuth sectors (over the full circle,

@@ -1,5 +1,7 @@
-//! Synthetic samples from a model: sampling grids and seeded multiplicative noise.
+//! Synthetic samples from a model or a Neural-BRDF network: sampling grids and seeded
+//! multiplicative noise.
 
+use crate::data::nbrdf::Nbrdf;
 use crate::data::{Dataset, Quantity};
 use crate::model::{Geometry, Model};
 use rand::{Rng, SeedableRng};
@@ -16,12 +18,24 @@ pub enum Grid {
     /// The plane of incidence for each listed θi (degrees): θo = 0…89° in 1° steps on both
     /// sides (φo = 0° and 180°), θo = 0 once.
     Plane(Vec<f64>),
+    /// A goniometer's grid, that of the Neural-BRDF and RGL tables in `../shared/data`:
+    /// θi = 10…80° in 10° steps, φi = 0, θo = 0…85° in 1° steps, φo = 0…345° in 15° steps
+    /// (16,512 configurations, θi slowest, φo fastest).
+    Goniometer,
+    /// The cell centres of a MERL 90 × 90 × 180 table (Matusik et al. 2003; see
+    /// [`crate::data::merl`]) whose light and eye are both above the horizon, in cell order.
+    Merl,
 }
 
 impl Grid {
-    /// Parse `hemisphere:N` or `plane:θ1,θ2,…` (degrees).
+    /// Parse `hemisphere:N`, `plane:θ1,θ2,…` (degrees), `goniometer` or `merl`.
     pub fn parse(s: &str) -> Result<Grid, String> {
-        let fix = "use hemisphere:N (N samples) or plane:30,70 (θi in degrees)";
+        let fix = "use hemisphere:N (N samples), plane:30,70 (θi in degrees), goniometer or merl";
+        match s.trim() {
+            "goniometer" => return Ok(Grid::Goniometer),
+            "merl" => return Ok(Grid::Merl),
+            _ => {}
+        }
         let (kind, arg) = s
             .split_once(':')
             .ok_or_else(|| format!("bad grid '{s}': {fix}"))?;
@@ -77,8 +91,43 @@ impl Grid {
                 }
                 out
             }
+            Grid::Goniometer => {
+                let mut out = Vec::with_capacity(8 * 86 * 24);
+                for ti in (10..=80).step_by(10) {
+                    for to in 0..=85 {
+                        for po in (0..360).step_by(15) {
+                            out.push([ti, 0, to, po].map(|d| (d as f64).to_radians()));
+                        }
+                    }
+                }
+                out
+            }
+            Grid::Merl => (0..crate::data::merl::CELLS)
+                .map(crate::data::merl::cell_center)
+                .filter(|a| a[0] < 0.5 * PI && a[2] < 0.5 * PI)
+                .collect(),
         }
     }
+}
+
+/// Evaluate a Neural-BRDF network on `dirs`: f_r in channels r, g, b; with `symmetric` the
+/// network made reciprocal and mirror-symmetric ([`Nbrdf::eval_symmetric`]), the truth for an
+/// isotropic model or table.
+pub fn simulate_nbrdf(net: &Nbrdf, dirs: &[[f64; 4]], symmetric: bool) -> Dataset {
+    let mut ds = Dataset::new(
+        Quantity::Brdf,
+        vec![("r".into(), None), ("g".into(), None), ("b".into(), None)],
+    );
+    for a in dirs {
+        let f = if symmetric {
+            net.eval_symmetric(*a)
+        } else {
+            net.eval(*a)
+        };
+        ds.push(*a, &f);
+    }
+    ds.meta.material = Some(net.name.clone());
+    ds
 }
 
 /// Evaluate `model` on `dirs` and apply multiplicative Gaussian noise v·(1 + σ ε), ε ~ N(0, 1),

@@ -13,6 +13,7 @@ mod csvfmt;
 // Public for the binary and the integration tests (separate crates), not library API.
 #[doc(hidden)]
 pub mod merl;
+pub mod nbrdf;
 
 use std::collections::BTreeMap;
 use std::f64::consts::{FRAC_PI_2, PI};

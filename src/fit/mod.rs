@@ -15,6 +15,7 @@
 mod argmin_peer;
 mod fitfile;
 mod json;
+pub mod physical;
 // Public for the binary and the integration tests (separate crates), not library API.
 #[doc(hidden)]
 pub mod lsq;
@@ -1060,7 +1061,7 @@ fn fit_group(
     let mf = m as f64;
     let kf = nfree as f64;
     let loglike_term = mf * (rss / mf).max(1e-300).ln();
-    Ok(FitResult {
+    let mut result = FitResult {
         model: opts.kind,
         dist: opts.dist,
         loss: opts.loss,
@@ -1087,7 +1088,11 @@ fn fit_group(
         kkt_violation: checks.kkt_violation,
         verification: checks.verification,
         unusable: checks.unusable,
-    })
+    };
+    // Step 8: only physical fits in use (pd ≤ 1, albedo ≤ 1, no lobe held down by F ≈ 0).
+    let unphysical = physical::problems(&result);
+    result.unusable.extend(unphysical);
+    Ok(result)
 }
 
 /// Solutions of distinct basins (apart by more than 1e-3 in some solver variable, relative to

@@ -17,6 +17,7 @@
 //!
 //! Blinn's `c3` equals the GGX roughness α of modern renderers: D3 = π c3² D_GGX.
 
+pub mod albedo;
 mod ggx_smith;
 mod lambert;
 mod phong;

@@ -1,0 +1,84 @@
+//! Only physical fits in use: the rules that mark a fit not usable because the material it
+//! describes could not exist, whatever its cost.
+//!
+//! 1. **pd > 1**: the Lambertian part alone reflects more light than arrives.
+//! 2. **Directional albedo above 1** at any θi of [`ALBEDO_THETA_I_DEG`] (0°–85°), by the
+//!    quadrature of [`directional_albedo`], with a margin of [`ALBEDO_MARGIN`] for its error.
+//! 3. **A lobe held down by F ≈ 0**: the Fresnel index is at its lower bound
+//!    (n − 1 ≤ 2 (n_lo − 1), so F0 ≤ 1e-8) and the same fit with F = 1 (the index at its upper
+//!    bound, which every real index approaches at grazing incidence) has a directional
+//!    albedo above 1 + [`ALBEDO_MARGIN`]: the data fix only the product ps·F, the fit
+//!    reached it with a vanishing F and a huge ps, and the material it names does not exist
+//!    (MERL steel, edge lit: GGX α 0.0075, n = 1.0001, ps = 10217).
+
+use super::FitResult;
+use crate::model::albedo::{ALBEDO_THETA_I_DEG, directional_albedo, max_albedo};
+use crate::model::{Model, Role, readable};
+
+/// Albedo above 1 by more than this marks a fit: ten times the quadrature's worst error on a
+/// sharp lobe (tests/albedo.rs).
+pub const ALBEDO_MARGIN: f64 = 1e-3;
+
+/// Why the model of one channel is not a physical material (empty when it is).
+pub fn model_problems(m: &Model) -> Vec<String> {
+    let mut out = Vec::new();
+    let pd = m.pd();
+    if pd > 1.0 {
+        out.push(format!(
+            "pd = {} > 1: the diffuse part alone reflects more light than it receives",
+            readable(pd)
+        ));
+    } else {
+        let (t, a) = max_albedo(m);
+        if !(a <= 1.0 + ALBEDO_MARGIN) {
+            out.push(format!(
+                "directional albedo {} > 1 at θi = {t}°: the fit reflects more light than it \
+                 receives",
+                readable(a)
+            ));
+        }
+    }
+    if let Some(k) = m.kind.index_of(m.dist, Role::Index) {
+        let spec = &m.specs()[k];
+        let n = m.p[k];
+        if n - 1.0 <= 2.0 * (spec.lo - 1.0) {
+            let mut unit = m.params().to_vec();
+            unit[k] = spec.hi;
+            let unit = m.with_params(&unit);
+            let (t, a) = ALBEDO_THETA_I_DEG
+                .iter()
+                .map(|&t| (t, directional_albedo(&unit, t.to_radians())))
+                .fold((0.0, 0.0), |b, x| if x.1 > b.1 { x } else { b });
+            if a > 1.0 + ALBEDO_MARGIN {
+                let ps = m.role(Role::Specular).unwrap_or(f64::NAN);
+                out.push(format!(
+                    "n = {} is at its lower bound, where F ≈ 0 holds the lobe down: with F = 1 \
+                     (any real index at grazing incidence) ps = {} would give a directional \
+                     albedo of {} at θi = {t}°; fix n to a physical index (--fix n=1.5) or \
+                     fit another model",
+                    crate::model::significant(n, 5),
+                    readable(ps),
+                    readable(a)
+                ));
+            }
+        }
+    }
+    out
+}
+
+/// Why a fit is not a physical material, for every channel it holds (prefixed `channel C:`
+/// when it holds several).
+pub fn problems(f: &FitResult) -> Vec<String> {
+    let chans: Vec<&str> = f.channel.split(',').collect();
+    let mut out = Vec::new();
+    for (c, name) in chans.iter().enumerate() {
+        for why in model_problems(&f.model_for(c)) {
+            out.push(if chans.len() > 1 {
+                format!("channel {name}: {why}")
+            } else {
+                why
+            });
+        }
+    }
+    out
+}

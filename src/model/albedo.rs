@@ -1,0 +1,108 @@
+//! Directional albedo ρ(θi) = ∫ f_r(L, E) cosθo dω_o over the outgoing hemisphere: the share
+//! of the light arriving from θi that a surface reflects (energy conservation asks ρ ≤ 1;
+//! Nicodemus et al. 1977, NBS Monograph 160, "directional-hemispherical reflectance").
+//!
+//! Quadrature: composite Gauss–Legendre (6 points a panel) in θo ∈ [0, π/2] and φo ∈ [0, π]
+//! (doubled: every model is symmetric about the plane of incidence), with panels that grow
+//! geometrically (×3, at most 0.4 rad wide) away from the mirror direction (θo = θi,
+//! φo = π) from 1e-5 rad, so a lobe of any width down to the models' sharpest (GGX α = 1e-4)
+//! is resolved, and a smooth integrand (Lambert) is integrated to about 1e-15. About 12,000
+//! evaluations per θi (tests/albedo.rs checks it against values worked by hand).
+
+use super::{Geometry, Model};
+use std::f64::consts::{FRAC_PI_2, PI};
+
+/// Gauss–Legendre nodes and weights on [−1, 1], 6 points (Abramowitz & Stegun, Table 25.4).
+const GL6: [(f64, f64); 6] = [
+    (-0.932_469_514_203_152_1, 0.171_324_492_379_170_4),
+    (-0.661_209_386_466_264_5, 0.360_761_573_048_138_6),
+    (-0.238_619_186_083_196_9, 0.467_913_934_572_691_0),
+    (0.238_619_186_083_196_9, 0.467_913_934_572_691_0),
+    (0.661_209_386_466_264_5, 0.360_761_573_048_138_6),
+    (0.932_469_514_203_152_1, 0.171_324_492_379_170_4),
+];
+
+/// Width of the panels next to the mirror direction (radians).
+const FIRST_PANEL: f64 = 1e-5;
+
+/// Growth of the panels away from the mirror direction.
+const GROWTH: f64 = 3.0;
+
+/// The widest panel (radians): a smooth integrand (a diffuse term) is integrated to ~1e-15.
+const WIDEST_PANEL: f64 = 0.4;
+
+/// The incidence angles (degrees) at which [`max_albedo`] checks energy conservation: 0° to
+/// 85° in 5° steps (beyond 85° nothing is measured and every model's value is extrapolated).
+pub const ALBEDO_THETA_I_DEG: [f64; 18] = [
+    0.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 45.0, 50.0, 55.0, 60.0, 65.0, 70.0, 75.0,
+    80.0, 85.0,
+];
+
+/// Panel ends on [lo, hi] growing geometrically (×2 from [`FIRST_PANEL`]) away from `centre`.
+fn graded(lo: f64, hi: f64, centre: f64) -> Vec<f64> {
+    let mut ends = vec![lo, hi];
+    if centre > lo && centre < hi {
+        ends.push(centre);
+    }
+    let mut h = FIRST_PANEL;
+    while h < hi - lo {
+        for x in [centre - h, centre + h] {
+            if x > lo && x < hi {
+                ends.push(x);
+            }
+        }
+        h *= GROWTH;
+    }
+    ends.sort_by(f64::total_cmp);
+    // Split panels wider than WIDEST_PANEL evenly.
+    let mut out = vec![ends[0]];
+    for &b in &ends[1..] {
+        let a = *out.last().expect("one end");
+        let k = ((b - a) / WIDEST_PANEL).ceil().max(1.0) as usize;
+        out.extend((1..=k).map(|j| a + (b - a) * j as f64 / k as f64));
+    }
+    out
+}
+
+/// (node, weight) pairs of the composite rule on the panels `ends`.
+fn nodes(ends: &[f64]) -> Vec<(f64, f64)> {
+    let mut out = Vec::with_capacity(6 * ends.len());
+    for w in ends.windows(2) {
+        let (mid, half) = (0.5 * (w[0] + w[1]), 0.5 * (w[1] - w[0]));
+        out.extend(GL6.iter().map(|&(x, a)| (mid + half * x, half * a)));
+    }
+    out
+}
+
+/// Directional albedo ρ(θi) = ∫ f_r cosθo dω_o of `model` for light at `theta_i` (radians).
+pub fn directional_albedo(model: &Model, theta_i: f64) -> f64 {
+    let theta = nodes(&graded(0.0, FRAC_PI_2, theta_i));
+    let phi = nodes(&graded(0.0, PI, PI));
+    let cos_phi: Vec<(f64, f64)> = phi.iter().map(|&(p, w)| (p.cos(), w)).collect();
+    let (si, ci) = theta_i.sin_cos();
+    let mut sum = 0.0;
+    for &(to, wt) in &theta {
+        let (so, co) = to.sin_cos();
+        let mut ring = 0.0;
+        for &(cp, wp) in &cos_phi {
+            // L·E = sinθi sinθo cos φo + cosθi cosθo, as in `Geometry::from_angles`.
+            ring += wp * model.brdf(&Geometry::from_cosines(ci, co, si * so * cp + ci * co));
+        }
+        sum += wt * co * so * ring;
+    }
+    2.0 * sum
+}
+
+/// The largest directional albedo over [`ALBEDO_THETA_I_DEG`]: (θi in degrees, ρ).
+pub fn max_albedo(model: &Model) -> (f64, f64) {
+    ALBEDO_THETA_I_DEG
+        .iter()
+        .map(|&t| (t, directional_albedo(model, t.to_radians())))
+        .fold((0.0, f64::NEG_INFINITY), |best, x| {
+            if x.1 > best.1 || x.1.is_nan() {
+                x
+            } else {
+                best
+            }
+        })
+}

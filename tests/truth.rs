@@ -1,0 +1,181 @@
+//! brdfit's fits of MERL materials against an independent truth (the Neural-BRDF networks,
+//! symmetrised) beside the published ABC fits of Löw et al. 2012 (issue 22's measure).
+//!
+//! Training data: each network on the goniometer grid (θi 10–80°, θo 0–85°, φo every 15°; the
+//! tables of ../shared/data/merl-nbrdf/), green channel, every model fitted with the default
+//! options. Test set, 20,000 configurations per material from a seeded stream: half uniform in
+//! solid angle with θi, θo ≤ 80°; half near the mirror, θh log-uniform in 0.01°–30°, φh, φd
+//! uniform, θd uniform in 0°–80°, kept where θi, θo ≤ 80°. Error: the RMSE over the set of
+//! ln(1 + f cosθi) − ln(1 + f_truth cosθi). `cargo test --release --test truth -- --nocapture`
+//! prints every model's error on the whole set and on its uniform half for the 8 materials.
+
+mod common;
+
+use brdfit::data::nbrdf::Nbrdf;
+use brdfit::data::{Dataset, Quantity};
+use brdfit::model::{Geometry, fresnel, geometric_attenuation};
+use brdfit::{FitOptions, fit};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+const MATERIALS: [&str; 8] = [
+    "alumina-oxide",
+    "aluminium",
+    "blue-acrylic",
+    "chrome",
+    "silver-paint",
+    "steel",
+    "white-diffuse-bball",
+    "white-paint",
+];
+
+/// Löw et al. 2012's ABC model as published: (kD, A, B, C, ior), green channel.
+struct Abc([f64; 5]);
+
+impl Abc {
+    /// f = kD/π + F(ior, E·H) D G/(π cosθi cosθo), D = A/(1 + B(1 − cosθh))^C.
+    fn brdf(&self, g: &Geometry) -> f64 {
+        let [kd, a, b, c, ior] = self.0;
+        if !g.visible() {
+            return 0.0;
+        }
+        let d = a / (1.0 + b * (1.0 - g.nh)).powf(c);
+        kd / std::f64::consts::PI
+            + fresnel(ior, g.eh) * d * geometric_attenuation(g)
+                / (std::f64::consts::PI * g.nl * g.ne)
+    }
+}
+
+fn abc(name: &str) -> Abc {
+    let text =
+        std::fs::read_to_string(common::root().join("tests/data/nbrdf/merl_abc_low2012-merl8.csv"))
+            .unwrap();
+    let row: Vec<f64> = text
+        .lines()
+        .find(|l| l.split(',').next() == Some(name))
+        .unwrap()
+        .split(',')
+        .skip(1)
+        .map(|x| x.parse().unwrap())
+        .collect();
+    // name,kD_r,kD_g,kD_b,A_r,A_g,A_b,B,C,ior: green.
+    Abc([row[1], row[4], row[6], row[7], row[8]])
+}
+
+/// The test set: (angles, uniform half?).
+fn test_set(seed: u64) -> Vec<([f64; 4], bool)> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let max = 80f64.to_radians();
+    let mut out = Vec::with_capacity(20_000);
+    while out.len() < 10_000 {
+        let ci: f64 = rng.random_range(max.cos()..=1.0);
+        let co: f64 = rng.random_range(max.cos()..=1.0);
+        let pi: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+        let po: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+        out.push(([ci.acos(), pi, co.acos(), po], true));
+    }
+    let (lo, hi) = (0.01f64.to_radians().ln(), 30f64.to_radians().ln());
+    while out.len() < 20_000 {
+        let th = rng.random_range(lo..hi).exp();
+        let ph: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+        let td: f64 = rng.random_range(0.0..max);
+        let pd: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+        let a = brdfit::data::merl::half_diff_to_std(th, ph, td, pd);
+        if a[0] <= max && a[2] <= max {
+            out.push((a, false));
+        }
+    }
+    out
+}
+
+/// RMSE of ln(1 + f cosθi) against the truth: (whole set, uniform half).
+fn log_error(set: &[([f64; 4], bool)], truth: &[f64], f: &dyn Fn(&Geometry) -> f64) -> (f64, f64) {
+    let (mut all, mut uni, mut nu) = (0.0, 0.0, 0.0);
+    for ((a, uniform), t) in set.iter().zip(truth) {
+        let g = Geometry::from_angles(a[0], a[1], a[2], a[3]);
+        let c = a[0].cos();
+        let r = (1.0 + f(&g) * c).ln() - (1.0 + t * c).ln();
+        all += r * r;
+        if *uniform {
+            uni += r * r;
+            nu += 1.0;
+        }
+    }
+    ((all / set.len() as f64).sqrt(), (uni / nu).sqrt())
+}
+
+/// On at least two of the 8 materials, brdfit's best usable model (lowest BIC among the usable
+/// fits) has a log error on the independent test set no higher than the published ABC fit's.
+#[test]
+fn best_usable_model_against_published_abc() {
+    let weights = common::root().join("tests/data/nbrdf/weights-merl8.json");
+    let grid = brdfit::simulate::Grid::Goniometer.directions(0);
+    let set = test_set(22);
+    let mut wins = 0;
+    println!(
+        "| material | best usable (BIC) | its error, all / uniform | ABC 2012, all / uniform | every model: all / uniform |"
+    );
+    println!("|---|---|---|---|---|");
+    for name in MATERIALS {
+        let net = Nbrdf::load(&weights, &format!("merl/{name}")).unwrap();
+        let rgb = brdfit::simulate::simulate_nbrdf(&net, &grid, false);
+        let mut ds = Dataset::new(Quantity::Brdf, vec![("g".into(), None)]);
+        for k in 0..rgb.len() {
+            ds.push(rgb.angles(k), &[rgb.channels[1].values[k]]);
+        }
+        let truth: Vec<f64> = set.iter().map(|(a, _)| net.eval_symmetric(*a)[1]).collect();
+        let fits: Vec<_> = brdfit::model::catalogue()
+            .into_iter()
+            .map(|(kind, dist)| {
+                let mut o = FitOptions::new(kind);
+                o.dist = dist;
+                o.profile = false;
+                fit(&ds, &o).unwrap().remove(0)
+            })
+            .collect();
+        let errors: Vec<(f64, f64)> = fits
+            .iter()
+            .map(|f| {
+                let m = f.model_for(0);
+                log_error(&set, &truth, &|g| m.brdf(g))
+            })
+            .collect();
+        let published = abc(name);
+        let e_abc = log_error(&set, &truth, &|g| published.brdf(g));
+        let best = (0..fits.len())
+            .filter(|&i| fits[i].usable())
+            .min_by(|&a, &b| fits[a].bic.total_cmp(&fits[b].bic));
+        let every: Vec<String> = fits
+            .iter()
+            .zip(&errors)
+            .map(|(f, e)| {
+                format!(
+                    "{}{} {:.3}/{:.3}",
+                    f.model.label(f.dist),
+                    if f.usable() { "" } else { " (not usable)" },
+                    e.0,
+                    e.1
+                )
+            })
+            .collect();
+        let (label, e_best) = match best {
+            Some(i) => (fits[i].model.label(fits[i].dist), errors[i]),
+            None => ("none".into(), (f64::INFINITY, f64::INFINITY)),
+        };
+        println!(
+            "| {name} | {label} | {:.3} / {:.3} | {:.3} / {:.3} | {} |",
+            e_best.0,
+            e_best.1,
+            e_abc.0,
+            e_abc.1,
+            every.join("; ")
+        );
+        if e_best.0 <= e_abc.0 {
+            wins += 1;
+        }
+    }
+    assert!(
+        wins >= 2,
+        "brdfit's best usable model beats ABC on {wins} of 8"
+    );
+}
