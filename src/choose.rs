@@ -897,16 +897,39 @@ pub fn case_table(c: &CaseResult, times: bool) -> String {
     s
 }
 
-/// Magma colour of an error in [0, 1] (NVIDIA ꟻLIP's map).
-fn magma(lut: &[u8], e: f32) -> [u8; 3] {
-    let i = ((e.clamp(0.0, 1.0) * 255.0).round() as usize).min(255);
+/// Magma colour of an error in [0, `max`] (NVIDIA ꟻLIP's map stretched to `max`; errors
+/// above it take the brightest colour).
+fn magma(lut: &[u8], e: f32, max: f32) -> [u8; 3] {
+    let i = (((e / max).clamp(0.0, 1.0) * 255.0).round() as usize).min(255);
     [lut[3 * i], lut[3 * i + 1], lut[3 * i + 2]]
 }
 
+/// The top of the contact sheet's ꟻLIP colour scale: the median of the models' ꟻLIP 99th
+/// percentiles `p99` (the upper one of an even count), rounded up to two significant digits,
+/// within [0.01, 1]. So the maps use the colours where the models' errors lie (on a fixed
+/// 0–1 scale errors of 0.03 were black), and one far-off model (Lambert at 0.6) does not
+/// darken the others; the worse half of the models saturate at the brightest colour. The
+/// bar shows the value.
+pub fn flip_scale(p99: &[f64]) -> f64 {
+    let mut v: Vec<f64> = p99.iter().copied().filter(|v| v.is_finite()).collect();
+    v.sort_by(f64::total_cmp);
+    let worst = v.get(v.len() / 2).copied().unwrap_or(0.0);
+    if worst <= 0.01 {
+        return 0.01;
+    }
+    if worst >= 1.0 {
+        return 1.0;
+    }
+    let step = 10f64.powf(worst.log10().floor() - 1.0);
+    // The 1e-9 keeps a value already on the grid (0.034) from rounding up a step.
+    ((worst / step - 1e-9).ceil() * step).min(1.0)
+}
+
 /// The contact sheet of a case, 4 columns wide so its text stays legible where the report
-/// shows it: each cell is a render over its ꟻLIP map (magma, 0–1), labelled with the model
-/// and its 99th percentiles; the reference's cell holds the colour bar instead of a map. A
-/// small visible region (an edge-lit crescent) is shown zoomed, and the title says so.
+/// shows it: each cell is a render over its ꟻLIP map (magma, 0 to [`flip_scale`]), labelled
+/// with the model and its 99th percentiles; the reference's cell holds the colour bar with
+/// its scale instead of a map. A small visible region (an edge-lit crescent) is shown zoomed
+/// with a smooth filter ([`crate::render::zoom_crop`]), and the title says so.
 fn contact_sheet(
     case: &CaseResult,
     imgs: &CaseImages,
@@ -939,32 +962,35 @@ fn contact_sheet(
             top + (k / cols) * (cell_h + gap),
         )
     };
-    // Nearest-pixel resampling of the crop onto the tile: the sheet shows the pixels the
-    // metrics saw.
+    let p99: Vec<f64> = case.models.iter().map(|m| m.flip_p99).collect();
+    let scale = flip_scale(&p99);
+    // The colour bar spans x = 8 … tile − 9 of the reference's lower tile.
+    let (bar0, bar1) = (8u32, tile - 9);
     for k in 0..n {
         let (x0, y0) = origin(k);
+        let render = crate::render::zoom_crop(&srgb[k as usize], iw, (cx, cy, side), tile);
+        let map = (k > 0).then(|| {
+            let coloured: Vec<u8> = imgs.flip_maps[k as usize - 1]
+                .iter()
+                .flat_map(|&e| magma(&lut, e, scale as f32))
+                .collect();
+            crate::render::zoom_crop(&coloured, iw, (cx, cy, side), tile)
+        });
         for y in 0..tile {
             for x in 0..tile {
-                let (sx, sy) = (cx + x * side / tile, cy + y * side / tile);
-                let i = (sy * iw + sx) as usize;
-                let s = &srgb[k as usize];
+                let i = 3 * (y * tile + x) as usize;
                 put(
                     &mut buf,
                     x0 + x,
                     y0 + label_h + y,
-                    [s[3 * i], s[3 * i + 1], s[3 * i + 2]],
+                    [render[i], render[i + 1], render[i + 2]],
                 );
                 let below = y0 + label_h + tile + 8 + y;
-                if k > 0 {
-                    let e = imgs.flip_maps[k as usize - 1][i];
-                    put(&mut buf, x0 + x, below, magma(&lut, e));
-                } else if (tile / 2..tile / 2 + 20).contains(&y) && (8..tile - 8).contains(&x) {
-                    put(
-                        &mut buf,
-                        x0 + x,
-                        below,
-                        magma(&lut, (x - 8) as f32 / (tile - 17) as f32),
-                    );
+                if let Some(m) = &map {
+                    put(&mut buf, x0 + x, below, [m[i], m[i + 1], m[i + 2]]);
+                } else if (tile / 2..tile / 2 + 20).contains(&y) && (bar0..=bar1).contains(&x) {
+                    let e = (x - bar0) as f32 / (bar1 - bar0) as f32 * scale as f32;
+                    put(&mut buf, x0 + x, below, magma(&lut, e, scale as f32));
                 }
             }
         }
@@ -1006,18 +1032,50 @@ fn contact_sheet(
                     y0 + 2,
                     16.0,
                 ))?;
+                let bar_y = y0 + label_h + tile + 8 + tile / 2;
                 e(text(
-                    "ꟻLIP error scale".into(),
+                    "ꟻLIP error, 0 to the models' median p99".into(),
                     x0 + 8,
-                    y0 + label_h + tile + 8 + tile / 2 - 24,
+                    bar_y - 42,
                     14.0,
                 ))?;
-                for (v, dx) in [(0.0, 0u32), (0.5, tile / 2 - 20), (1.0, tile - 40)] {
+                e(text(
+                    format!(
+                        "(brightest: {} or more)",
+                        crate::model::significant(scale, 2)
+                    ),
+                    x0 + 8,
+                    bar_y - 24,
+                    14.0,
+                ))?;
+                let at = |v: f64| x0 + bar0 + ((v / scale) * (bar1 - bar0) as f64).round() as u32;
+                let half = crate::model::significant(scale / 2.0, 2);
+                let top = crate::model::significant(scale, 2);
+                e(text("0".into(), at(0.0), bar_y + 26, 14.0))?;
+                e(text(
+                    half.clone(),
+                    at(scale / 2.0) - 4 * half.len() as u32,
+                    bar_y + 26,
+                    14.0,
+                ))?;
+                e(text(
+                    top.clone(),
+                    at(scale) - 8 * top.len() as u32,
+                    bar_y + 26,
+                    14.0,
+                ))?;
+                // The threshold's ꟻLIP level, where the scale reaches it.
+                if th.metric.starts_with("flip") && th.value > 0.0 && th.value < scale {
+                    let x = at(th.value);
+                    e(root.draw(&PathElement::new(
+                        vec![(x as i32, bar_y as i32 - 4), (x as i32, bar_y as i32 + 24)],
+                        RGBColor(0, 160, 255).stroke_width(2),
+                    )))?;
                     e(text(
-                        format!("{v:.1}"),
-                        x0 + 8 + dx,
-                        y0 + label_h + tile + 8 + tile / 2 + 26,
-                        14.0,
+                        format!("threshold {}", th.value),
+                        x.saturating_sub(30).max(x0),
+                        bar_y + 44,
+                        13.0,
                     ))?;
                 }
                 continue;

@@ -270,16 +270,53 @@ type XyContext<'a, DB> = ChartContext<
     >,
 >;
 
-/// One labelled series: markers of `radius` pixels, or a line.
+/// The colour of measured samples in every chart (markers), so "measured" reads the same
+/// everywhere; models take [`PALETTE`] in turn.
+pub const MEASURED: RGBColor = RGBColor(0, 0, 0);
+
+/// How the `k`-th model curve of a chart is stroked: (width, dash length, gap) in pixels, a gap
+/// of 0 meaning solid. The first curve is solid, the next dashed (drawn over it), then
+/// dotted, so a curve lying on another (MERL aluminium's Torrance–Sparrow under its GGX–Smith)
+/// still shows as the dashes on the line beneath.
+pub fn line_style(k: usize) -> (u32, u32, u32) {
+    match k % 4 {
+        0 => (2, 0, 0),
+        1 => (2, 10, 6),
+        2 => (2, 2, 4),
+        _ => (2, 14, 4),
+    }
+}
+
+/// A line of `xy` in `color`, stroked as [`line_style`]`(k)`.
+fn draw_line<'a, 'b, DB: DrawingBackend + 'a>(
+    chart: &'b mut XyContext<'a, DB>,
+    xy: Vec<(f64, f64)>,
+    k: usize,
+    color: RGBColor,
+) -> Result<&'b mut plotters::chart::SeriesAnno<'a, DB>> {
+    let (width, dash, gap) = line_style(k);
+    let style = color.stroke_width(width);
+    if gap == 0 {
+        chart.draw_series(LineSeries::new(xy, style)).map_err(err)
+    } else {
+        chart
+            .draw_series(DashedLineSeries::new(xy, dash, gap, style))
+            .map_err(err)
+    }
+}
+
+/// One labelled series: markers of `radius` pixels in [`MEASURED`], or a line in `color`
+/// stroked as the `k`-th model ([`line_style`]).
 fn draw_series<'a, DB: DrawingBackend + 'a>(
     chart: &mut XyContext<'a, DB>,
     xy: Vec<(f64, f64)>,
     label: &str,
     markers: bool,
     radius: u32,
-    color: RGBColor,
+    (k, color): (usize, RGBColor),
 ) -> Result<()> {
     if markers {
+        let color = MEASURED;
         // Dense clouds are drawn translucent and small, so their density stays readable.
         let (radius, alpha) = if xy.len() > 2000 {
             (2, 0.15)
@@ -295,12 +332,17 @@ fn draw_series<'a, DB: DrawingBackend + 'a>(
             .label(label)
             .legend(move |(x, y)| Circle::new((x + 9, y), 3, color.filled()));
     } else {
-        chart
-            .draw_series(LineSeries::new(xy, color.stroke_width(2)))
-            .map_err(err)?
+        let (width, dash, gap) = line_style(k);
+        draw_line(chart, xy, k, color)?
             .label(label)
             .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+                let (dash, gap) = if gap == 0 { (30, 0) } else { (dash, gap) };
+                plotters::element::DashedPathElement::new(
+                    vec![(x, y), (x + 24, y)],
+                    dash,
+                    gap,
+                    color.stroke_width(width),
+                )
             });
     }
     Ok(())
@@ -370,20 +412,52 @@ pub fn lobe_curve(model: &Model, theta_i_deg: f64, q: LobeQuantity) -> Vec<(f64,
         .collect()
 }
 
-/// The measured samples of channel `c` in the plane of incidence at θi (within 0.5°):
-/// φo = φi (light side, θo > 0) or φo = φi + 180° (mirror side, θo < 0) within `tol_deg`.
+/// How near a sample must lie to a lobe panel's plane to be drawn in it (degrees): its θi
+/// within `theta_i` of the panel's, its azimuth within `azimuth` of the plane of incidence.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InPlane {
+    /// Largest |θi − panel θi|.
+    pub theta_i: f64,
+    /// Largest azimuth from φi (light side) or φi + 180° (mirror side).
+    pub azimuth: f64,
+}
+
+impl InPlane {
+    /// Both tolerances `deg`.
+    pub fn both(deg: f64) -> InPlane {
+        InPlane {
+            theta_i: deg,
+            azimuth: deg,
+        }
+    }
+
+    /// What the legend says about the samples drawn: "θi ± 0.5°, azimuth ± 1°" (the
+    /// azimuth from the plane of incidence).
+    pub fn describe(&self) -> String {
+        format!(
+            "θi ± {}°, azimuth ± {}°",
+            crate::model::significant(self.theta_i, 3),
+            crate::model::significant(self.azimuth, 3)
+        )
+    }
+}
+
+/// The measured samples of channel `c` in the plane of incidence at θi: θi within
+/// `tol.theta_i`, and φo = φi (light side, θo > 0) or φo = φi + 180° (mirror side, θo < 0)
+/// within `tol.azimuth`.
 pub fn in_plane_samples(
     ds: &Dataset,
     c: usize,
     theta_i_deg: f64,
-    tol_deg: f64,
+    tol: InPlane,
     q: LobeQuantity,
 ) -> Vec<(f64, f64)> {
     let vals = ds.brdf_values(c);
+    let tol_deg = tol.azimuth;
     let mut out: Vec<(f64, f64)> = (0..ds.len())
         .filter_map(|k| {
             let a = ds.angles(k);
-            if (a[0].to_degrees() - theta_i_deg).abs() > 0.5 || !vals[k].is_finite() {
+            if (a[0].to_degrees() - theta_i_deg).abs() > tol.theta_i || !vals[k].is_finite() {
                 return None;
             }
             let d = (a[3] - a[1]).to_degrees().rem_euclid(360.0);
@@ -443,6 +517,9 @@ pub struct LobeChart {
     pub quantity: LobeQuantity,
     /// Log radius (4 decades below the maximum), for measured data with sharp peaks.
     pub log: bool,
+    /// One radial scale for every panel (the largest value of all), so panels compare by
+    /// size (Blinn's Figures 5 and 6); else each panel has its own, shown on its axes.
+    pub shared_scale: bool,
 }
 
 impl LobeChart {
@@ -451,17 +528,26 @@ impl LobeChart {
         self.size()
     }
 
-    /// The radius drawn for a value, given the largest value `vmax` in the chart.
+    /// Decades of a log radius between the outer circle and the centre.
+    pub const LOG_DECADES: f64 = 4.0;
+
+    /// The radius drawn for a value, given the largest value `vmax` in the chart. On a log
+    /// radius a value below the floor `vmax`·10⁻⁴ is drawn at the centre ([`LobeChart::floor`]).
     pub fn radius(&self, v: f64, vmax: f64) -> f64 {
         if self.log {
-            ((v / vmax).max(1e-300).log10() + 4.0).max(0.0) / 4.0
+            ((v / vmax).max(1e-300).log10() + Self::LOG_DECADES).max(0.0) / Self::LOG_DECADES
         } else {
             v / vmax
         }
     }
 
-    /// The largest value in a panel: its outer circle (each panel has its own scale, shown
-    /// on its axes).
+    /// The value at the centre: the floor of a log radius (`vmax`·10⁻⁴), 0 on a linear one.
+    pub fn floor(&self, vmax: f64) -> f64 {
+        self.value_at(0.0, vmax)
+    }
+
+    /// The largest value in a panel: its outer circle, unless the chart has a
+    /// [`LobeChart::shared_scale`] (then [`LobeChart::vmax_of`]).
     pub fn vmax(panel: &LobePanel) -> f64 {
         panel
             .series
@@ -472,23 +558,48 @@ impl LobeChart {
             .fold(1e-300, f64::max)
     }
 
-    /// The value at drawn radius `r` (inverse of [`LobeChart::radius`]), for axis labels.
+    /// The outer circle's value of a panel: its own largest value, or with a shared scale the
+    /// largest value of every panel.
+    pub fn vmax_of(&self, panel: &LobePanel) -> f64 {
+        if self.shared_scale {
+            self.panels.iter().map(Self::vmax).fold(1e-300, f64::max)
+        } else {
+            Self::vmax(panel)
+        }
+    }
+
+    /// The value at drawn radius `r` (inverse of [`LobeChart::radius`]), for axis labels: on a
+    /// log radius the centre is the floor, 4 decades below `vmax`, not 0.
     pub fn value_at(&self, r: f64, vmax: f64) -> f64 {
         if self.log {
-            if r <= 0.0 {
-                0.0
-            } else {
-                vmax * 10f64.powf(4.0 * (r - 1.0))
-            }
+            vmax * 10f64.powf(Self::LOG_DECADES * (r.max(0.0) - 1.0))
         } else {
             r * vmax
+        }
+    }
+
+    /// The axis label at signed radius `r` (the x axis runs from −1 to 1): the value there,
+    /// 3 significant digits (in e-notation below 0.001 or from 100,000 on).
+    pub fn tick_label(&self, r: f64, vmax: f64) -> String {
+        let v = self.value_at(r.abs(), vmax);
+        let a = v.abs();
+        if a == 0.0 || (1e-3..1e5).contains(&a) {
+            crate::model::significant(v, 3)
+        } else {
+            let s = format!("{v:.2e}");
+            match s.split_once('e') {
+                Some((m, e)) if m.contains('.') => {
+                    format!("{}e{e}", m.trim_end_matches('0').trim_end_matches('.'))
+                }
+                _ => s,
+            }
         }
     }
 }
 
 impl Chart for LobeChart {
     fn size(&self) -> (u32, u32) {
-        (560 * self.panels.len().max(1) as u32, 420)
+        (560 * self.panels.len().max(1) as u32, 440)
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()> {
@@ -496,18 +607,51 @@ impl Chart for LobeChart {
         let root = root.titled(&self.title, ("sans-serif", 20)).map_err(err)?;
         let areas = root.split_evenly((1, self.panels.len().max(1)));
         for (panel, area) in self.panels.iter().zip(&areas) {
-            let vmax = Self::vmax(panel);
+            let vmax = self.vmax_of(panel);
+            let same = if self.shared_scale && self.panels.len() > 1 {
+                "; one scale for all panels"
+            } else {
+                ""
+            };
             let unit = if self.log {
                 format!(
-                    "radius: {} on a log scale, 4 decades to the outer circle",
+                    "radius: {} on a log scale, 4 decades to the outer circle{same}",
                     self.quantity.label()
                 )
             } else {
-                format!("radius: {} (axes in its units)", self.quantity.label())
+                format!(
+                    "radius: {} (axes in its units{same})",
+                    self.quantity.label()
+                )
             };
-            let (area, foot) = area.split_vertically(area.dim_in_pixel().1.saturating_sub(22));
+            // On a log radius, measured values below the floor are drawn at the centre: the
+            // footer's second line says how many.
+            let floor = self.floor(vmax);
+            let pinned: usize = panel
+                .series
+                .iter()
+                .filter(|s| s.markers && self.log)
+                .map(|s| {
+                    s.points
+                        .iter()
+                        .filter(|p| p.1.is_finite() && p.1 < floor)
+                        .count()
+                })
+                .sum();
+            let (area, foot) = area.split_vertically(area.dim_in_pixel().1.saturating_sub(40));
             foot.draw(&Text::new(unit.clone(), (14, 4), ("sans-serif", 13)))
                 .map_err(err)?;
+            if pinned > 0 {
+                foot.draw(&Text::new(
+                    format!(
+                        "{pinned} measured values below {} (the centre) are drawn at the centre",
+                        self.tick_label(0.0, vmax)
+                    ),
+                    (14, 21),
+                    ("sans-serif", 13),
+                ))
+                .map_err(err)?;
+            }
             let mut chart = ChartBuilder::on(&area)
                 .caption(&panel.title, ("sans-serif", 16))
                 .margin(10)
@@ -515,10 +659,7 @@ impl Chart for LobeChart {
                 .y_label_area_size(58)
                 .build_cartesian_2d(-1.1f64..1.1f64, 0f64..1.1f64)
                 .map_err(err)?;
-            let label = |r: f64| {
-                let v = self.value_at(r.abs(), vmax);
-                crate::model::significant(v, 3)
-            };
+            let label = |r: f64| self.tick_label(r, vmax);
             chart
                 .configure_mesh()
                 .disable_mesh()
@@ -573,8 +714,8 @@ impl Chart for LobeChart {
                     .draw_series(LineSeries::new(seg.to_vec(), RGBColor(120, 120, 120)))
                     .map_err(err)?;
             }
-            for (k, s) in panel.series.iter().enumerate() {
-                let color = PALETTE[k % PALETTE.len()];
+            let mut k = 0;
+            for s in &panel.series {
                 let xy: Vec<(f64, f64)> = s
                     .points
                     .iter()
@@ -585,7 +726,17 @@ impl Chart for LobeChart {
                         (r * a.sin(), r * a.cos())
                     })
                     .collect();
-                draw_series(&mut chart, xy, &s.label, s.markers, 2, color)?;
+                draw_series(
+                    &mut chart,
+                    xy,
+                    &s.label,
+                    s.markers,
+                    2,
+                    (k, PALETTE[k % PALETTE.len()]),
+                )?;
+                if !s.markers {
+                    k += 1;
+                }
             }
             draw_legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
         }
@@ -614,8 +765,8 @@ pub fn blinn_figure_models() -> (Model, Model) {
 /// Blinn's Figure 5 (θi = 30°) or 6 (θi = 70°) as a chart: Phong and Torrance–Sparrow side by side.
 pub fn blinn_figure(theta_i_deg: f64, number: u32) -> LobeChart {
     let (phong, ts) = blinn_figure_models();
-    let panel = |title: &str, m: &Model| LobePanel {
-        title: title.to_string(),
+    let panel = |title: String, m: &Model| LobePanel {
+        title,
         theta_i_deg,
         series: vec![LobeSeries {
             label: format!("{m}"),
@@ -627,12 +778,23 @@ pub fn blinn_figure(theta_i_deg: f64, number: u32) -> LobeChart {
         title: format!(
             "Figure {number}: Phong and Torrance–Sparrow reflection distributions, incident light at {theta_i_deg}° (equal β)"
         ),
+        // Each panel is titled with the label its legend gives the model.
         panels: vec![
-            panel("Phong model", &phong),
-            panel("Torrance–Sparrow model", &ts),
+            panel(
+                format!(
+                    "Phong model in Blinn's form (N·H)^c1: {}",
+                    phong.kind.label(phong.dist)
+                ),
+                &phong,
+            ),
+            panel(
+                format!("Torrance–Sparrow model: {}", ts.kind.label(ts.dist)),
+                &ts,
+            ),
         ],
         quantity: LobeQuantity::Intensity,
         log: false,
+        shared_scale: true,
     }
 }
 
@@ -793,12 +955,15 @@ impl Chart for XyChart {
         }
         let tx = |v: f64| if self.log_x { v.log10() } else { v };
         let ty = |v: f64| if self.log_y { v.log10() } else { v };
+        // Headroom above the data for the legend, so it never covers a point or a curve: the
+        // legend's rows (about 21 px each) out of the plotting area's ~380 px.
+        let (top, _) = self.legend_headroom(ty(y0), ty(y1));
         let mut chart = ChartBuilder::on(root)
             .caption(&self.title, ("sans-serif", 18))
             .margin(12)
             .x_label_area_size(42)
             .y_label_area_size(64)
-            .build_cartesian_2d(tx(x0)..tx(x1), ty(y0)..ty(y1))
+            .build_cartesian_2d(tx(x0)..tx(x1), ty(y0)..top)
             .map_err(err)?;
         let xl = if self.log_x {
             format!("log₁₀ {}", self.x_label)
@@ -831,8 +996,9 @@ impl Chart for XyChart {
                 .label(label.clone())
                 .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK));
         }
-        // A series with an empty label continues the one before it: same colour, no legend
-        // entry (the upper line of a 10–90 % band).
+        // A series with an empty label continues the line before it: same colour and stroke,
+        // no legend entry (the upper line of a 10–90 % band). Lines take the palette and
+        // strokes in turn; markers are measured samples, in one colour.
         let mut k = 0;
         for s in &self.series {
             let xy: Vec<(f64, f64)> = s
@@ -843,10 +1009,7 @@ impl Chart for XyChart {
                 .map(|p| (tx(p.0), ty(p.1)))
                 .collect();
             if s.label.is_empty() && k > 0 {
-                let color = PALETTE[(k - 1) % PALETTE.len()];
-                chart
-                    .draw_series(LineSeries::new(xy, color.stroke_width(2)))
-                    .map_err(err)?;
+                draw_line(&mut chart, xy, k - 1, PALETTE[(k - 1) % PALETTE.len()])?;
                 continue;
             }
             draw_series(
@@ -855,30 +1018,32 @@ impl Chart for XyChart {
                 &s.label,
                 s.markers,
                 3,
-                PALETTE[k % PALETTE.len()],
+                (k, PALETTE[k % PALETTE.len()]),
             )?;
-            k += 1;
+            if !s.markers {
+                k += 1;
+            }
         }
-        // The legend goes in the top corner with fewer points under it (top quarter, outer
-        // 45 % of the width), so it does not hide data.
-        let (lx0, lx1, ly0, ly1) = (tx(x0), tx(x1), ty(y0), ty(y1));
-        let under = |right: bool| {
-            all()
-                .filter(|p| p.0.is_finite() && p.1.is_finite())
-                .filter(|p| {
-                    let u = (tx(p.0) - lx0) / (lx1 - lx0);
-                    let v = (ty(p.1) - ly0) / (ly1 - ly0);
-                    v > 0.75 && if right { u > 0.55 } else { u < 0.45 }
-                })
-                .count()
-        };
-        let pos = if under(true) <= under(false) {
-            SeriesLabelPosition::UpperRight
-        } else {
-            SeriesLabelPosition::UpperLeft
-        };
-        draw_legend(&mut chart, pos)?;
+        // The legend sits in the headroom above the data, at the right.
+        draw_legend(&mut chart, SeriesLabelPosition::UpperRight)?;
         Ok(())
+    }
+}
+
+impl XyChart {
+    /// Rows of the legend: one per labelled series and the reference line.
+    pub fn legend_rows(&self) -> usize {
+        self.series.iter().filter(|s| !s.label.is_empty()).count()
+            + usize::from(self.hline.is_some())
+    }
+
+    /// The top of the y axis (in axis units, log₁₀ on a log axis) that leaves the data
+    /// (from `lo` to `hi`) the lower part of the plot and the legend the band above it, and
+    /// that band's share of the height: 21 px per legend row plus 14 out of about 380 px,
+    /// at most half.
+    pub fn legend_headroom(&self, lo: f64, hi: f64) -> (f64, f64) {
+        let share = ((21 * self.legend_rows() + 14) as f64 / 380.0).min(0.5);
+        (lo + (hi - lo) / (1.0 - share), share)
     }
 }
 
@@ -1164,7 +1329,8 @@ impl Chart for SliceChart {
 }
 
 /// A lobe chart with one panel per incidence angle: each model's curve, and, when data are
-/// given, the in-plane samples of channel `c` within `tol_deg` of the plane.
+/// given, the in-plane samples of channel `c` within `tol` of the panel's plane (the legend
+/// states the tolerance and the count).
 pub fn lobe_chart(
     title: &str,
     models: &[(String, Model)],
@@ -1172,7 +1338,7 @@ pub fn lobe_chart(
     thetas: &[f64],
     q: LobeQuantity,
     log: bool,
-    tol_deg: f64,
+    tol: InPlane,
 ) -> LobeChart {
     let panels = thetas
         .iter()
@@ -1186,15 +1352,12 @@ pub fn lobe_chart(
                 })
                 .collect();
             if let Some((ds, c)) = data {
-                let points = in_plane_samples(ds, c, t, tol_deg, q);
+                let points = in_plane_samples(ds, c, t, tol, q);
                 series.push(LobeSeries {
                     label: if points.is_empty() {
-                        format!("no measured sample within {tol_deg}° of this plane")
+                        format!("no measured sample within {}", tol.describe())
                     } else {
-                        format!(
-                            "measured, within {tol_deg}° of the plane ({})",
-                            points.len()
-                        )
+                        format!("measured ({}), {}", points.len(), tol.describe())
                     },
                     points,
                     markers: true,
@@ -1212,6 +1375,7 @@ pub fn lobe_chart(
         panels,
         quantity: q,
         log,
+        shared_scale: false,
     }
 }
 

@@ -479,7 +479,10 @@ fn plots(doc: &mut Doc, set: &DataSet, fits: &[FitResult], ts_i: usize, rec: usi
         &thetas,
         plot::LobeQuantity::Intensity,
         !synthetic,
-        if synthetic { 5.0 } else { 1.0 },
+        plot::InPlane {
+            theta_i: 0.5,
+            azimuth: if synthetic { 5.0 } else { 1.0 },
+        },
     );
     doc.h(3, "Lobes, residuals and albedo", &format!("{name}-plots"));
     let (png, svg) = save_chart(&chart, root, &format!("{dir}/lobes"))?;

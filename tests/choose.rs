@@ -299,3 +299,50 @@ fn choose_cli_writes_the_documented_files() {
     assert!(!st.status.success());
     assert!(String::from_utf8_lossy(&st.stderr).contains("flip_p99"));
 }
+
+/// The contact sheet's ꟻLIP colour bar ends at the models' median ꟻLIP p99, rounded up to two
+/// significant digits (worked by hand): of 0.005, 0.062, 0.114, 0.119, 0.472, 0.474, 0.644
+/// the median is 0.119 → 0.12; of seven models near 0.03 (the maps that were black on a
+/// fixed 0–1 scale) it is 0.0305 → 0.031; of two, the upper one; the scale stays in [0.01, 1].
+#[test]
+fn flip_map_scale_follows_the_data() {
+    use brdfit::choose::flip_scale;
+    let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
+    let edge = [0.644, 0.474, 0.472, 0.005, 0.062, 0.119, 0.114];
+    assert!(close(flip_scale(&edge), 0.12), "{}", flip_scale(&edge));
+    let near = [0.028, 0.031, 0.0305, 0.029, 0.033, 0.027, 0.034];
+    assert!(close(flip_scale(&near), 0.031), "{}", flip_scale(&near));
+    assert!(close(flip_scale(&[0.0337, 0.02]), 0.034));
+    assert!(close(flip_scale(&[0.0999]), 0.1));
+    assert!(close(flip_scale(&[0.004]), 0.01));
+    assert!(close(flip_scale(&[1.7, 2.0]), 1.0));
+    assert!(close(flip_scale(&[]), 0.01));
+    assert!(close(flip_scale(&[f64::NAN, 0.2]), 0.2));
+}
+
+/// A misspelt threshold metric is a usage error, exit code 2, as a misspelt `--model` is,
+/// and the message names the nearest metric.
+#[test]
+fn misspelt_threshold_metric_exits_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let st = std::process::Command::new(env!("CARGO_BIN_EXE_brdfit"))
+        .args([
+            "choose",
+            "data/blinn-mgo.csv",
+            "--threshold",
+            "flip_p98=0.05",
+            "-o",
+        ])
+        .arg(dir.path().join("out"))
+        .current_dir(common::root())
+        .output()
+        .unwrap();
+    assert_eq!(st.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&st.stderr);
+    assert!(
+        err.contains("flip_p98") && err.contains("--threshold flip_p99=0.05"),
+        "{err}"
+    );
+    // Nothing was written.
+    assert!(!dir.path().join("out").exists());
+}

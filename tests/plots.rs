@@ -73,11 +73,29 @@ fn in_plane_selection() {
     ds.push([d(30.0), 0.0, d(45.0), d(180.8)], &[5.0]);
     ds.push([d(40.0), 0.0, d(20.0), d(180.0)], &[6.0]);
     ds.push([d(30.0), d(20.0), d(50.0), d(200.0)], &[7.0]);
-    let s = plot::in_plane_samples(&ds, 0, 30.0, 1.0, LobeQuantity::Brdf);
+    let s = plot::in_plane_samples(
+        &ds,
+        0,
+        30.0,
+        plot::InPlane {
+            theta_i: 0.5,
+            azimuth: 1.0,
+        },
+        LobeQuantity::Brdf,
+    );
     let got: Vec<(i64, i64)> = s.iter().map(|p| (p.0.round() as i64, p.1 as i64)).collect();
     assert_eq!(got, vec![(-50, 7), (-45, 5), (-20, 1), (25, 2), (26, 3)]);
     // Intensity is π f cosθi.
-    let s = plot::in_plane_samples(&ds, 0, 30.0, 1.0, LobeQuantity::Intensity);
+    let s = plot::in_plane_samples(
+        &ds,
+        0,
+        30.0,
+        plot::InPlane {
+            theta_i: 0.5,
+            azimuth: 1.0,
+        },
+        LobeQuantity::Intensity,
+    );
     assert!((s[2].1 - std::f64::consts::PI * d(30.0).cos()).abs() < 1e-12);
 }
 
@@ -318,4 +336,92 @@ fn log_tick_labels() {
     assert_eq!(plot::log_tick(0.003), "");
     assert_eq!(plot::log_tick(0.007), "");
     assert_eq!(plot::log_tick(0.0), "");
+}
+
+/// Builds a one-panel lobe chart whose largest value is `vmax`.
+fn lobe_chart_with_max(vmax: f64, log: bool) -> plot::LobeChart {
+    plot::LobeChart {
+        title: String::new(),
+        panels: vec![plot::LobePanel {
+            title: String::new(),
+            theta_i_deg: 30.0,
+            series: vec![plot::LobeSeries {
+                label: "curve".into(),
+                points: vec![(-30.0, vmax), (0.0, 0.5 * vmax), (40.0, 0.0)],
+                markers: false,
+            }],
+        }],
+        quantity: LobeQuantity::Intensity,
+        log,
+        shared_scale: false,
+    }
+}
+
+/// On a log radius the centre is the floor, 4 decades below the outer circle, and its tick
+/// reads that value, not "0": worked by hand, 60.8 × 10⁻⁴ = 0.00608 at the centre,
+/// 60.8 × 10⁻² = 0.608 at half the radius (either side), 60.8 at the rim; 0.05 × 10⁻⁴ = 5e-6.
+/// On a linear radius the centre is 0 and half the radius 30.4.
+#[test]
+fn log_lobe_centre_is_labelled_with_the_floor() {
+    let chart = lobe_chart_with_max(60.8, true);
+    let vmax = chart.vmax_of(&chart.panels[0]);
+    assert_eq!(vmax, 60.8);
+    assert_eq!(chart.tick_label(0.0, vmax), "0.00608");
+    assert!((chart.floor(vmax) - 0.00608).abs() < 1e-15);
+    assert_eq!(chart.tick_label(0.5, vmax), "0.608");
+    assert_eq!(chart.tick_label(-0.5, vmax), "0.608");
+    assert_eq!(chart.tick_label(1.0, vmax), "60.8");
+    // A value at the floor is drawn at the centre, one decade up at a quarter of the radius.
+    assert!(chart.radius(0.00608, vmax).abs() < 1e-12);
+    assert!((chart.radius(0.0608, vmax) - 0.25).abs() < 1e-12);
+    let small = lobe_chart_with_max(0.05, true);
+    assert_eq!(small.tick_label(0.0, 0.05), "5e-6");
+    let linear = lobe_chart_with_max(60.8, false);
+    assert_eq!(linear.tick_label(0.0, 60.8), "0");
+    assert_eq!(linear.tick_label(0.5, 60.8), "30.4");
+}
+
+/// Blinn's Figure 6 draws both panels on one radial scale (the Torrance–Sparrow lobe's
+/// maximum, several times Phong's), so the brighter lobe is the bigger one; each panel's title
+/// names the model as its legend does.
+#[test]
+fn blinn_figure_panels_share_one_scale_and_name_their_model() {
+    let chart = plot::blinn_figure(70.0, 6);
+    assert!(chart.shared_scale);
+    let (phong, ts) = (&chart.panels[0], &chart.panels[1]);
+    let own = |p: &plot::LobePanel| plot::LobeChart::vmax(p);
+    assert!(own(ts) > 3.0 * own(phong), "{} {}", own(ts), own(phong));
+    assert_eq!(chart.vmax_of(phong), own(ts));
+    assert_eq!(chart.vmax_of(ts), own(ts));
+    for p in &chart.panels {
+        let legend = p.series[0].label.split(' ').next().unwrap();
+        assert!(p.title.contains(legend), "{} / {legend}", p.title);
+    }
+    assert!(chart.panels[0].title.contains("blinn-phong"));
+}
+
+/// Model curves are told apart by their stroke as well as their colour (the second is
+/// dashed), and the in-plane tolerance is stated in the legend with the count drawn.
+#[test]
+fn lobe_curves_differ_in_stroke_and_the_legend_states_the_tolerance() {
+    assert_eq!(plot::line_style(0).2, 0);
+    assert!(plot::line_style(1).2 > 0 && plot::line_style(1) != plot::line_style(2));
+    let mut ds = Dataset::new(Quantity::Brdf, vec![(String::new(), None)]);
+    let d = f64::to_radians;
+    // θi 31° is within 2.5° of the 30° panel, 33° is not; azimuth 182° is within 2.5°.
+    ds.push([d(31.0), 0.0, d(20.0), d(182.0)], &[1.0]);
+    ds.push([d(33.0), 0.0, d(20.0), d(180.0)], &[1.0]);
+    let m = Model::new(ModelKind::Lambert, Distribution::D3, &[0.5]).unwrap();
+    let chart = plot::lobe_chart(
+        "t",
+        &[("lambert".into(), m)],
+        Some((&ds, 0)),
+        &[30.0],
+        LobeQuantity::Intensity,
+        false,
+        plot::InPlane::both(2.5),
+    );
+    let measured = &chart.panels[0].series[1];
+    assert_eq!(measured.points.len(), 1);
+    assert_eq!(measured.label, "measured (1), θi ± 2.5°, azimuth ± 2.5°");
 }

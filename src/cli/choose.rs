@@ -2,7 +2,7 @@
 //! measurement's, for each lighting case of a scene.
 
 use super::*;
-use anyhow::{Result, anyhow, bail};
+use anyhow::{Result, bail};
 use brdfit::choose::{self, Metric, Threshold};
 
 /// Arguments of `brdfit choose`.
@@ -18,8 +18,8 @@ pub(crate) struct ChooseArgs {
     pub(crate) scene: String,
     /// METRIC=VALUE: the largest error a chosen model may have; METRIC is one of flip_mean,
     /// flip_p99, delta_e_itp_mean, delta_e_itp_p99, rmse.
-    #[arg(long, default_value = "flip_p99=0.05")]
-    pub(crate) threshold: String,
+    #[arg(long, default_value = "flip_p99=0.05", value_parser = parse_threshold)]
+    pub(crate) threshold: Threshold,
     /// Output directory (created; its choose files are replaced).
     #[arg(short, long, default_value = "choose")]
     pub(crate) output: PathBuf,
@@ -36,15 +36,36 @@ pub(crate) struct ChooseArgs {
     pub(crate) load: LoadArgs,
 }
 
-fn parse_threshold(s: &str) -> Result<Threshold> {
+/// `--threshold METRIC=VALUE`, parsed by clap, so a misspelt metric is a usage error (exit
+/// code 2) like any other misspelt choice.
+fn parse_threshold(s: &str) -> std::result::Result<Threshold, String> {
     let keys: Vec<&str> = Metric::ALL.iter().map(|m| m.key()).collect();
     let (k, v) = s.split_once('=').ok_or_else(|| {
-        anyhow!("--threshold {s}: expected METRIC=VALUE\n  fix: e.g. --threshold flip_p99=0.05")
+        "expected METRIC=VALUE\n  fix: e.g. --threshold flip_p99=0.05".to_string()
     })?;
     let metric = Metric::from_key(k.trim()).ok_or_else(|| {
-        anyhow!(
-            "--threshold: unknown metric {k}\n  fix: use one of {}",
-            keys.join(", ")
+        // The nearest key by the number of differing characters at the same place, then by
+        // length (flip_p98 → flip_p99).
+        let near = keys
+            .iter()
+            .min_by_key(|key| {
+                let same = key
+                    .chars()
+                    .zip(k.trim().chars())
+                    .filter(|(a, b)| a == b)
+                    .count();
+                (
+                    key.len().max(k.trim().len()) - same,
+                    key.len().abs_diff(k.trim().len()),
+                )
+            })
+            .copied()
+            .unwrap_or("flip_p99");
+        format!(
+            "unknown metric '{}'\n  fix: use one of {} (the nearest: --threshold {near}={})",
+            k.trim(),
+            keys.join(", "),
+            v.trim()
         )
     })?;
     let value: f64 = v
@@ -53,13 +74,17 @@ fn parse_threshold(s: &str) -> Result<Threshold> {
         .ok()
         .filter(|x: &f64| x.is_finite() && *x >= 0.0)
         .ok_or_else(|| {
-            anyhow!("--threshold: {v} is not a value ≥ 0\n  fix: e.g. --threshold {k}=0.05")
+            format!(
+                "'{}' is not a value ≥ 0\n  fix: e.g. --threshold {}=0.05",
+                v.trim(),
+                k.trim()
+            )
         })?;
     Ok(Threshold { metric, value })
 }
 
 pub(crate) fn run_choose(a: ChooseArgs) -> Result<()> {
-    let threshold = parse_threshold(&a.threshold)?;
+    let threshold = a.threshold;
     if !(16..=4096).contains(&a.res) {
         bail!(
             "--res {} is out of range\n  fix: give a resolution between 16 and 4096",

@@ -1373,6 +1373,24 @@ pub fn visible_crop(srgb: &[Vec<u8>], w: u32, h: u32, level: u8) -> (u32, u32, u
     (left, top, side)
 }
 
+/// The square `side`×`side` crop at (`cx`, `cy`) of an 8-bit RGB image `w` pixels wide,
+/// resampled to `tile`×`tile` with a smooth filter (Catmull–Rom bicubic, the `image` crate's
+/// `imageops::resize`, whose support widens when it shrinks): a zoomed crescent shows smooth
+/// edges, not blocks of pixels. The crop is clamped to the image.
+pub fn zoom_crop(rgb: &[u8], w: u32, (cx, cy, side): (u32, u32, u32), tile: u32) -> Vec<u8> {
+    let h = (rgb.len() / 3) as u32 / w.max(1);
+    let (cx, cy) = (cx.min(w.saturating_sub(1)), cy.min(h.saturating_sub(1)));
+    let side = side.min(w - cx).min(h - cy).max(1);
+    let mut crop = image::RgbImage::new(side, side);
+    for y in 0..side {
+        for x in 0..side {
+            let i = 3 * ((cy + y) * w + cx + x) as usize;
+            crop.put_pixel(x, y, image::Rgb([rgb[i], rgb[i + 1], rgb[i + 2]]));
+        }
+    }
+    image::imageops::resize(&crop, tile, tile, image::imageops::FilterType::CatmullRom).into_raw()
+}
+
 /// A labelled contact sheet (PNG bytes) of Figure 7 images laid out as Blinn's figure: rows
 /// aluminium and MgO, columns front/edge × Phong/Torrance–Sparrow.
 pub fn contact_sheet(images: &[(String, Image)]) -> anyhow::Result<Vec<u8>> {
@@ -1414,33 +1432,12 @@ pub fn contact_sheet(images: &[(String, Image)]) -> anyhow::Result<Vec<u8>> {
         } else {
             (0, 0, img.width.min(img.height))
         };
+        // Smooth resampling of the (cropped) image onto the tile.
+        let zoomed = zoom_crop(&to_srgb8(img), img.width, (cx, cy, side), tile);
         for y in 0..tile {
-            for x in 0..tile {
-                // Box-filtered resampling of the (cropped) image onto the tile.
-                let (sx0, sx1) = (
-                    cx + x * side / tile,
-                    cx + ((x + 1) * side / tile).max(x * side / tile + 1),
-                );
-                let (sy0, sy1) = (
-                    cy + y * side / tile,
-                    cy + ((y + 1) * side / tile).max(y * side / tile + 1),
-                );
-                let mut acc = [0f32; 3];
-                let mut n: f32 = 0.0;
-                for sy in sy0..sy1.min(img.height) {
-                    for sx in sx0..sx1.min(img.width) {
-                        let p = img.at(sx, sy);
-                        for i in 0..3 {
-                            acc[i] += p[i];
-                        }
-                        n += 1.0;
-                    }
-                }
-                let o = (((y0 + y) * w + x0 + x) * 3) as usize;
-                for i in 0..3 {
-                    buf[o + i] = srgb(acc[i] / n.max(1.0));
-                }
-            }
+            let o = (((y0 + y) * w + x0) * 3) as usize;
+            let i = (3 * y * tile) as usize;
+            buf[o..o + 3 * tile as usize].copy_from_slice(&zoomed[i..i + 3 * tile as usize]);
         }
     }
     {
