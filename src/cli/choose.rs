@@ -2,7 +2,7 @@
 //! measurement's, for each lighting case of a scene.
 
 use super::*;
-use anyhow::{Result, bail};
+use anyhow::{Result, anyhow, bail};
 use brdfit::choose::{self, Metric, Threshold};
 
 /// Arguments of `brdfit choose`.

@@ -7,8 +7,7 @@ use std::path::Path;
 
 /// Read a fit JSON strictly (one fit, or several under `fits`); the error names the file.
 pub(crate) fn read_fits(path: &Path) -> Result<Vec<brdfit::fit::FitResult>> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("{}: cannot read the fit JSON", path.display()))?;
+    let text = brdfit::input::read_to_string_limited(path, brdfit::input::Input::FitJson)?;
     brdfit::fit::read_fit_file(&text).map_err(|e| anyhow!("{}: {e}", path.display()))
 }
 

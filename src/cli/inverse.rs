@@ -1,7 +1,7 @@
 //! `brdfit inverse`: arguments and output around the library's inverse Phong.
 
 use super::*;
-use anyhow::{Context, Result, anyhow, bail};
+use anyhow::{Result, anyhow, bail};
 use clap::Args;
 use std::path::{Path, PathBuf};
 
@@ -170,8 +170,7 @@ pub(crate) fn run_inverse(args: InverseArgs) -> Result<()> {
         markers: false,
     }];
     if let Some(t) = truth {
-        let d =
-            std::fs::read_to_string(&t).with_context(|| format!("{}: cannot read", t.display()))?;
+        let d = brdfit::input::read_to_string_limited(&t, brdfit::input::Input::Data)?;
         let pts = inverse::read_truth_csv(&d);
         series.push(brdfit::plot::LobeSeries {
             label: "true height".into(),
