@@ -577,12 +577,12 @@ pub fn pick(fits: &[FitResult], want: &Want) -> Result<Picked, FitFileError> {
             why.push("its random-start verification found a lower cost (verified: false)".into());
         }
         let model = f.model_for(c);
-        // The declared bounds let pd exceed 1 (the fitter's box); a diffuse albedo cannot.
-        if model.pd() > 1.0 {
-            why.push(format!(
-                "pd = {} > 1: its diffuse part alone reflects more light than arrives",
-                model.pd()
-            ));
+        // The declared bounds are the fitter's box (pd may exceed 1, ps is open above): the
+        // material must also exist (pd ≤ 1, directional albedo ≤ 1, no lobe held down by F ≈ 0).
+        for p in super::physical::model_problems(&model) {
+            if !why.contains(&p) {
+                why.push(p);
+            }
         }
         if !why.is_empty() {
             if !want.allow_unusable {
