@@ -77,24 +77,30 @@ fn fits_mut(v: &mut Value) -> Vec<&mut Value> {
 }
 
 /// Apply `m` to the JSON text `src`; `None` when the file offers nothing to mutate that way.
-fn mutate(src: &str, m: Mutation, rng: &mut impl Rng) -> Option<String> {
+/// Also returns the channel of the parameter changed (its `_r`, `_g`, `_b` suffix), if any.
+fn mutate(src: &str, m: Mutation, rng: &mut impl Rng) -> Option<(String, Option<String>)> {
     let mut v: Value = serde_json::from_str(src).unwrap();
     if m == Mutation::Truncated {
         let cut = rng.random_range(1..src.len() - 1);
-        return Some(src[..cut].to_string());
+        return Some((src[..cut].to_string(), None));
     }
     if m == Mutation::NoFits {
-        return Some(r#"{"fits": []}"#.into());
+        return Some((r#"{"fits": []}"#.into(), None));
     }
     let mut fits = fits_mut(&mut v);
     let k = rng.random_range(0..fits.len());
     let fit = &mut *fits[k];
+    let fit_channel = fit["channel"].as_str().unwrap_or("").to_string();
     let params = fit["params"].as_object_mut()?;
     let names: Vec<String> = params.keys().cloned().collect();
     if names.is_empty() {
         return None;
     }
     let name = names[rng.random_range(0..names.len())].clone();
+    let channel = name
+        .split_once('_')
+        .map(|(_, c)| c.to_string())
+        .or_else(|| (!fit_channel.contains(',')).then_some(fit_channel));
     match m {
         Mutation::InRange => {
             let x = params[&name].as_f64()?;
@@ -132,9 +138,12 @@ fn mutate(src: &str, m: Mutation, rng: &mut impl Rng) -> Option<String> {
             } else {
                 "1.5"
             };
-            return Some(text.replace(
-                &format!("\"{marker}\": {x}"),
-                &format!("\"{name}\": {x},\n\"{name}\": {other}"),
+            return Some((
+                text.replace(
+                    &format!("\"{marker}\": {x}"),
+                    &format!("\"{name}\": {x},\n\"{name}\": {other}"),
+                ),
+                channel,
             ));
         }
         Mutation::BadDistribution => fit["distribution"] = Value::from("d9"),
@@ -144,12 +153,18 @@ fn mutate(src: &str, m: Mutation, rng: &mut impl Rng) -> Option<String> {
         }
         Mutation::Truncated | Mutation::NoFits => unreachable!(),
     }
-    Some(serde_json::to_string_pretty(&v).unwrap())
+    Some((serde_json::to_string_pretty(&v).unwrap(), channel))
 }
 
 /// The consumers of a fit file `fit` whose data file is `data`: argument lists writing under
 /// `out`, and the output files to scan for non-finite numbers.
-fn consumers(fit: &Path, data: &str, image: &Path, out: &Path) -> Vec<(Vec<String>, Vec<PathBuf>)> {
+fn consumers(
+    fit: &Path,
+    data: &str,
+    channel: Option<&str>,
+    image: &Path,
+    out: &Path,
+) -> Vec<(Vec<String>, Vec<PathBuf>)> {
     let f = fit.to_str().unwrap().to_string();
     let o = |name: &str| out.join(name);
     let s = |p: &Path| p.to_str().unwrap().to_string();
@@ -176,9 +191,10 @@ fn consumers(fit: &Path, data: &str, image: &Path, out: &Path) -> Vec<(Vec<Strin
             "-o".into(),
             s(&p),
         ];
-        // BRDF Explorer's file holds one channel's model: an RGB fit needs one named.
+        // BRDF Explorer's file holds one channel's model: an RGB fit needs one named (the
+        // one whose parameter was changed).
         if to == "brdf-explorer" && data.contains("_rgb") {
-            args.extend(["--channel".into(), "g".into()]);
+            args.extend(["--channel".into(), channel.unwrap_or("g").into()]);
         }
         add(args, vec![p]);
     }
@@ -356,7 +372,7 @@ fn mutated_fit_files_are_refused_or_used_never_misused() {
     while made < n {
         let m = ALL[made % ALL.len()];
         let (src, data) = &sources[rng.random_range(0..sources.len())];
-        let Some(text) = mutate(src, m, &mut rng) else {
+        let Some((text, channel)) = mutate(src, m, &mut rng) else {
             continue;
         };
         made += 1;
@@ -365,7 +381,7 @@ fn mutated_fit_files_are_refused_or_used_never_misused() {
         let fit = case.join("fit.json");
         std::fs::write(&fit, &text).unwrap();
         let valid = m == Mutation::InRange;
-        for (args, outs) in consumers(&fit, data, &image, &case) {
+        for (args, outs) in consumers(&fit, data, channel.as_deref(), &image, &case) {
             let a: Vec<&str> = args.iter().map(String::as_str).collect();
             let out = brdfit(&a);
             runs += 1;
