@@ -27,8 +27,11 @@ enum Mutation {
     InRange,
     /// A parameter set negative (every parameter of every model is ≥ 0, n ≥ 1).
     Negative,
-    /// A parameter set to 1e300 (beyond every declared bound).
+    /// A shape parameter or index set to 1e300 (beyond its declared bound).
     Huge,
+    /// ps or pd set to 1e300 in a file of one model (inside the declared [0, ∞), but no
+    /// material reflects so much: the physical check refuses it where the fit is used).
+    HugeReflectance,
     /// A parameter set to `null` (read back as not a number).
     Null,
     /// A parameter set to a string.
@@ -51,10 +54,11 @@ enum Mutation {
     Unusable,
 }
 
-const ALL: [Mutation; 13] = [
+const ALL: [Mutation; 14] = [
     Mutation::InRange,
     Mutation::Negative,
     Mutation::Huge,
+    Mutation::HugeReflectance,
     Mutation::Null,
     Mutation::Text,
     Mutation::Missing,
@@ -88,11 +92,27 @@ fn mutate(src: &str, m: Mutation, rng: &mut impl Rng) -> Option<(String, Option<
         return Some((r#"{"fits": []}"#.into(), None));
     }
     let mut fits = fits_mut(&mut v);
+    let models: std::collections::BTreeSet<String> = fits
+        .iter()
+        .map(|f| format!("{} {}", f["model"], f["distribution"]))
+        .collect();
+    if m == Mutation::HugeReflectance && models.len() > 1 {
+        return None;
+    }
     let k = rng.random_range(0..fits.len());
     let fit = &mut *fits[k];
     let fit_channel = fit["channel"].as_str().unwrap_or("").to_string();
     let params = fit["params"].as_object_mut()?;
-    let names: Vec<String> = params.keys().cloned().collect();
+    let reflectance = |n: &str| matches!(n.split('_').next(), Some("ps" | "pd"));
+    let names: Vec<String> = params
+        .keys()
+        .filter(|n| match m {
+            Mutation::Huge => !reflectance(n),
+            Mutation::HugeReflectance => reflectance(n),
+            _ => true,
+        })
+        .cloned()
+        .collect();
     if names.is_empty() {
         return None;
     }
@@ -118,7 +138,7 @@ fn mutate(src: &str, m: Mutation, rng: &mut impl Rng) -> Option<(String, Option<
             params[&name] = Value::from(x * 1.01);
         }
         Mutation::Negative => params[&name] = Value::from(-0.5),
-        Mutation::Huge => params[&name] = Value::from(1e300),
+        Mutation::Huge | Mutation::HugeReflectance => params[&name] = Value::from(1e300),
         Mutation::Null => params[&name] = Value::Null,
         Mutation::Text => params[&name] = Value::from("0.5"),
         Mutation::Missing => {
