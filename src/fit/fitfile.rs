@@ -328,13 +328,14 @@ pub(crate) fn check_fit_object(v: &serde_json::Value) -> Result<(), FitFileError
                 format!("write a number ({})", spec.bounds_text()),
             )
         })?;
-        if !spec.admits(val) {
+        if !spec.in_fit_box(val) {
             return Err(err(
                 format!(
-                    "params.{name} = {val} is outside its bounds: {}",
-                    spec.bounds_text()
+                    "params.{name} = {} is outside the range a fit can return: {}",
+                    crate::model::readable(val),
+                    spec.fit_box_text()
                 ),
-                format!("refit, or write a value with {}", spec.bounds_text()),
+                format!("refit, or write a value with {}", spec.fit_box_text()),
             ));
         }
     }

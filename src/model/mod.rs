@@ -373,6 +373,28 @@ impl ParamSpec {
         }
     }
 
+    /// Whether `v` lies in the fitter's box (the declared [lo, hi], `hi` also where it is not a
+    /// natural limit): every value a fit can return. A fit file holding another was edited.
+    pub fn in_fit_box(&self, v: f64) -> bool {
+        self.admits(v) && v <= self.hi
+    }
+
+    /// The fitter's box as text, e.g. `1 < n ≤ 1e7` (see [`ParamSpec::in_fit_box`]).
+    pub fn fit_box_text(&self) -> String {
+        let (low, strict) = self.floor();
+        let op = if strict { "<" } else { "≤" };
+        if self.hi.is_finite() {
+            format!(
+                "{} {op} {} ≤ {}",
+                readable(low),
+                self.name,
+                readable(self.hi)
+            )
+        } else {
+            self.bounds_text()
+        }
+    }
+
     /// The admissible values as text, e.g. `0 < c3 ≤ 1` or `ps ≥ 0`.
     pub fn bounds_text(&self) -> String {
         let (low, strict) = self.floor();
