@@ -443,16 +443,29 @@ fn parameters(
             doc.p(&format!("✗ Not usable: {why}"));
         }
     }
-    let ts = &fits[ts_i];
-    let fit_path = root.join(dir).join("fit-torrance-sparrow.json");
-    write_bytes_atomic(
-        &fit_path,
-        (serde_json::to_string_pretty(&fit_json(ts))? + "\n").as_bytes(),
-    )?;
-    doc.link(
-        &rel(&fit_path, root),
-        "Torrance–Sparrow fit as JSON (input to brdfit render, plot and export)",
-    );
+    // The recommended model's fit first (what a reader takes elsewhere), then Torrance–Sparrow.
+    for &i in shown.iter().rev() {
+        let f = &fits[i];
+        let file = if i == ts_i {
+            "fit-torrance-sparrow.json".to_string()
+        } else {
+            format!("fit-{}.json", f.label().replace(" (", "-").replace(')', ""))
+        };
+        let fit_path = root.join(dir).join(file);
+        write_bytes_atomic(
+            &fit_path,
+            (serde_json::to_string_pretty(&fit_json(f))? + "\n").as_bytes(),
+        )?;
+        let what = if i == rec && f.usable() {
+            format!("{} fit (the recommended model) as JSON", f.label())
+        } else {
+            format!("{} fit as JSON", f.label())
+        };
+        doc.link(
+            &rel(&fit_path, root),
+            &format!("{what} (input to brdfit render, plot and export)"),
+        );
+    }
 
     Ok(())
 }

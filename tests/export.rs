@@ -295,3 +295,34 @@ fn mitsuba_loads_each_export_and_evaluates_the_fitted_f_r() {
         "measured {median} %, stated {stated} %"
     );
 }
+
+/// Spectral fits become colour through CIE 1931: a flat spectrum is grey (white = a flat
+/// spectrum), and a spectrum bright only from 600 nm on is red (r well above g and b).
+#[test]
+fn spectral_fits_export_as_colour() {
+    use brdfit::fit::{Want, pick, read_fit_file};
+    let file = |pd: &dyn Fn(f64) -> f64| {
+        let fits: Vec<String> = (0..31)
+            .map(|k| {
+                let l = 400.0 + 10.0 * k as f64;
+                format!(
+                    r#"{{"model": "lambert", "channel": "{l}nm", "params": {{"pd": {}}}, "cost": 1, "rmse": 1, "samples_used": 1, "bic": 1, "aic": 1, "n_free": 1}}"#,
+                    pd(l)
+                )
+            })
+            .collect();
+        let fits = read_fit_file(&format!(r#"{{"fits": [{}]}}"#, fits.join(","))).unwrap();
+        pick(&fits, &Want::default()).unwrap().colour().unwrap()
+    };
+    let flat = file(&|_| 0.4);
+    for v in flat.pd {
+        assert!((v - 0.4).abs() < 1e-12, "{:?}", flat.pd);
+    }
+    assert!(flat.notes[0].contains("CIE 1931"), "{:?}", flat.notes);
+    let red = file(&|l| if l >= 600.0 { 0.8 } else { 0.05 });
+    assert!(
+        red.pd[0] > 0.5 && red.pd[1] < 0.3 && red.pd[2] < 0.15,
+        "{:?}",
+        red.pd
+    );
+}

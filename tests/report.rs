@@ -85,6 +85,11 @@ fn report_links_are_valid_and_output_is_reproducible() {
             Some("json") => {
                 serde_json::from_slice::<serde_json::Value>(&bytes)
                     .unwrap_or_else(|e| panic!("{l}: {e}"));
+                // The fit files the report offers read back under the strict reader.
+                if l.rsplit('/').next().is_some_and(|f| f.starts_with("fit-")) {
+                    brdfit::fit::read_fit_file(std::str::from_utf8(&bytes).unwrap())
+                        .unwrap_or_else(|e| panic!("{l}: {e}"));
+                }
             }
             Some("md") | Some("csv") => assert!(!bytes.is_empty()),
             other => panic!("unexpected link type {other:?}: {l}"),

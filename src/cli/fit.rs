@@ -44,6 +44,11 @@ pub(crate) fn pick_fit(
 
 pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
     use rayon::prelude::*;
+    // An output that is an input is refused before any fit is run or printed.
+    let inputs: Vec<&Path> = a.files.iter().map(PathBuf::as_path).collect();
+    for out in [&a.json, &a.summary].into_iter().flatten() {
+        refuse_input(out, &inputs)?;
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.jobs.clamp(1, 64))
         .build()
@@ -98,6 +103,9 @@ pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
         };
         let s = serde_json::to_string_pretty(&v)? + "\n";
         write_file(path, s.as_bytes())?;
+        if flat.len() > 1 && !quiet() {
+            eprintln!("note: {}", holds(path, &flat));
+        }
     }
     if let Some(path) = &a.summary {
         refuse_input(
@@ -117,33 +125,47 @@ pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
                 .collect();
             serde_json::to_string_pretty(&rows)? + "\n"
         } else {
+            // One column per parameter name (in order of first appearance), empty where a
+            // row's model has no such parameter.
+            let mut pnames: Vec<&str> = Vec::new();
+            for (_, fits) in &all {
+                for r in fits {
+                    for (n, _) in &r.params {
+                        if !pnames.contains(&n.as_str()) {
+                            pnames.push(n);
+                        }
+                    }
+                }
+            }
             let mut w = csv::Writer::from_writer(Vec::new());
-            w.write_record([
-                "file",
-                "channel",
-                "model",
-                "params",
+            let mut head = vec!["file", "channel", "model"];
+            head.extend(&pnames);
+            head.extend([
                 "cost",
                 "rmse",
+                "bic",
                 "samples_used",
                 "warnings",
                 "unusable",
-            ])?;
+            ]);
+            w.write_record(&head)?;
             for (f, fits) in &all {
                 for r in fits {
-                    let params: Vec<String> =
-                        r.params.iter().map(|(n, v)| format!("{n}={v}")).collect();
-                    w.write_record([
-                        f.display().to_string(),
-                        r.channel.clone(),
-                        r.label(),
-                        params.join(" "),
+                    let mut row = vec![f.display().to_string(), r.channel.clone(), r.label()];
+                    row.extend(
+                        pnames
+                            .iter()
+                            .map(|n| r.get(n).map_or(String::new(), |v| v.to_string())),
+                    );
+                    row.extend([
                         r.cost.to_string(),
                         r.rmse.to_string(),
+                        r.bic.to_string(),
                         r.samples_used.to_string(),
                         r.warnings.len().to_string(),
                         r.unusable.join("; "),
-                    ])?;
+                    ]);
+                    w.write_record(&row)?;
                 }
             }
             String::from_utf8(w.into_inner().map_err(|e| anyhow!("{e}"))?)?
@@ -224,12 +246,16 @@ pub(crate) fn fit_one(
             text.push_str(&fit::format_channels(fits));
         }
         if all.len() > 1 {
-            text.push_str("recommended (fewest parameters within 2 BIC of the best):\n");
+            text.push_str(
+                "BIC ranking per channel: ΔBIC from the best usable fit; ← recommended (fewest parameters within 2 BIC of the best):\n",
+            );
             for c in 0..nch {
                 let row: Vec<fit::FitResult> = all.iter().map(|f| f[c].clone()).collect();
-                let (_, rec) = fit::rank(&row);
-                let name = rec.map_or("none usable".into(), |r| row[r].label());
-                text.push_str(&format!("  {:<10} {name}\n", row[0].channel));
+                text.push_str(&format!(
+                    "  {:<10} {}\n",
+                    row[0].channel,
+                    fit::format_ranking_line(&row)
+                ));
             }
         }
         text.push_str("(each fit in full: --verbose or --json)\n");
@@ -246,4 +272,36 @@ pub(crate) fn fit_one(
         }
     }
     Ok((text, all.into_iter().flatten().collect()))
+}
+
+/// What a fit file holds, e.g. `fits.json holds 7 models of channel y; consumers (export,
+/// plot, render) use the recommended one unless given --model`.
+fn holds(path: &Path, fits: &[&brdfit::fit::FitResult]) -> String {
+    let mut models: Vec<String> = Vec::new();
+    let mut channels: Vec<&str> = Vec::new();
+    for f in fits {
+        if !models.contains(&f.label()) {
+            models.push(f.label());
+        }
+        for c in f.channel.split(',') {
+            if !channels.contains(&c) {
+                channels.push(c);
+            }
+        }
+    }
+    let m = match models.len() {
+        1 => format!("1 model ({})", models[0]),
+        n => format!("{n} models"),
+    };
+    let c = match channels.len() {
+        1 => format!("channel {}", channels[0]),
+        n if n <= 4 => format!("channels {}", channels.join(", ")),
+        n => format!("{n} channels ({} … {})", channels[0], channels[n - 1]),
+    };
+    let tail = if models.len() > 1 {
+        "; consumers (export, plot, render) use the recommended model unless given --model"
+    } else {
+        "; consumers take every channel (export, scenes: as colour) or pick one with --channel"
+    };
+    format!("{} holds {m} of {c}{tail}", path.display())
 }

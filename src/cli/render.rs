@@ -37,8 +37,7 @@ pub(crate) fn run_render(
     output: &Path,
     al: Option<&Path>,
     mgo: Option<&Path>,
-    pick: &PickArgs,
-    channel: Option<&str>,
+    (pick, channel): (&PickArgs, Option<&str>),
     (res, allow_large): (u32, bool),
     quiet: bool,
 ) -> Result<()> {

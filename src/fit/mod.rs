@@ -2235,6 +2235,13 @@ pub fn format_channels(fits: &[FitResult]) -> String {
             let _ = write!(s, " {:>10}", crate::model::readable(*v));
         }
         let mut flags = f.flags();
+        if let Some(v) = &f.verification {
+            flags.push(if v.verified {
+                format!("verified({})", v.starts)
+            } else {
+                format!("NOT-VERIFIED({})", v.starts)
+            });
+        }
         if !f.usable() {
             flags.push("NOT USABLE".into());
         }
@@ -2246,7 +2253,31 @@ pub fn format_channels(fits: &[FitResult]) -> String {
             flags.join(" ")
         );
     }
+    for f in fits.iter().filter(|f| !f.usable()) {
+        let _ = writeln!(s, "  not usable, {}: {}", f.channel, f.unusable.join("; "));
+    }
     s
+}
+
+/// One line of a channel's BIC ranking: each model with its ΔBIC from the best usable fit,
+/// best first, the recommended one marked `←`, fits not usable last as `not usable`.
+pub fn format_ranking_line(fits: &[FitResult]) -> String {
+    let (order, rec) = rank(fits);
+    let best = order.first().map_or(0.0, |&i| fits[i].bic);
+    order
+        .iter()
+        .map(|&i| {
+            let f = &fits[i];
+            if !f.usable() {
+                format!("{} not usable", f.label())
+            } else if Some(i) == rec {
+                format!("{} {:+.1} ←", f.label(), f.bic - best)
+            } else {
+                format!("{} {:+.1}", f.label(), f.bic - best)
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// The model-comparison table of one channel.
