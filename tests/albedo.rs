@@ -64,7 +64,7 @@ fn sharp_ggx_lobe_reflects_fresnel() {
     let mut worst: f64 = 0.0;
     for n in [1.5, 1e7] {
         let m = model(ModelKind::GgxSmith, &[1e-3, n, 1.0, 0.0]);
-        for &t in ALBEDO_THETA_I_DEG.iter().take(17) {
+        for &t in ALBEDO_THETA_I_DEG.iter().filter(|&&t| t < 85.0) {
             let ti = (t as f64).to_radians();
             let want = if n > 1e6 {
                 1.0
