@@ -151,7 +151,7 @@ fn unphysical_models_are_named() {
             .any(|w| w.contains("lower bound") && w.contains("ps = 10217")),
         "{why:?}"
     );
-    // MERL aluminium edge lit: Torrance–Sparrow D3 c3 0.013, n = 1.0003 (near the bound),
+    // MERL aluminium edge lit (n = 1.00022 there; 1.0003 here, near the bound): D3 c3 0.013,
     // ps = 3.2e6: with F = 1 the D3 lobe's albedo is about ps·4c3² ≈ 2000.
     let al = Model::new(
         ModelKind::TorranceSparrow,

@@ -10,7 +10,7 @@
 //!    a directional albedo above 1 + [`ALBEDO_MARGIN`]: the data fix only the product ps·F,
 //!    the fit reached it with a vanishing F and a huge ps, and the material it names does not
 //!    exist (MERL steel, edge lit: GGX α 0.0075, n = 1.0001, ps = 10217; MERL aluminium,
-//!    edge lit: Torrance–Sparrow D3 c3 0.013, n = 1.0003, ps = 3.2e6).
+//!    edge lit: Torrance–Sparrow D3 c3 0.013, n = 1.00022, ps = 3.2e6).
 
 use super::FitResult;
 use crate::model::albedo::{ALBEDO_THETA_I_DEG, directional_albedo, max_albedo};
