@@ -481,9 +481,12 @@ impl Judged {
 /// Which of a model's two fits a row judges: a usable one before one that is not, then the
 /// lower error under `metric`; the scene-weighted fit on a tie.
 fn used_fit(scene: &Judged, global: &Judged, metric: Metric) -> FitUsed {
-    let key = |j: &Judged| (!j.usable, j.error(metric));
-    let (a, b) = (key(scene), key(global));
-    if b.0 < a.0 || (b.0 == a.0 && b.1 < a.1) {
+    let better = match (scene.usable, global.usable) {
+        (true, false) => false,
+        (false, true) => true,
+        _ => global.error(metric) < scene.error(metric),
+    };
+    if better {
         FitUsed::Global
     } else {
         FitUsed::SceneWeighted

@@ -148,13 +148,9 @@ fn simulate_samples_a_network_on_a_goniometer_and_a_merl_grid() {
                     .all(|(x, y)| (x - y).abs() < 1e-9)
             })
             .expect("every published row is on the grid");
-        for c in 0..3 {
-            let v = ds.channels[c].values[k];
-            assert!(
-                (v - want[c]).abs() <= 1e-4 * want[c],
-                "{a:?}: {v} vs {}",
-                want[c]
-            );
+        for (ch, w) in ds.channels.iter().zip(want) {
+            let v = ch.values[k];
+            assert!((v - w).abs() <= 1e-4 * w, "{a:?}: {v} vs {w}");
         }
         matched += 1;
     }
@@ -189,13 +185,9 @@ fn simulate_samples_a_network_on_a_goniometer_and_a_merl_grid() {
     let net = Nbrdf::load(&weights(), "merl/steel").unwrap();
     for k in (0..merl.len()).step_by(9973) {
         let want = net.eval_symmetric(merl.angles(k));
-        for c in 0..3 {
-            let v = merl.channels[c].values[k];
-            assert!(
-                (v - want[c]).abs() <= 1e-9 * want[c].max(1e-9),
-                "cell {k}: {v} vs {}",
-                want[c]
-            );
+        for (ch, w) in merl.channels.iter().zip(want) {
+            let v = ch.values[k];
+            assert!((v - w).abs() <= 1e-9 * w.max(1e-9), "cell {k}: {v} vs {w}");
         }
     }
     // A model name and a network together are a usage error.

@@ -4,12 +4,13 @@
 //! 1. **pd > 1**: the Lambertian part alone reflects more light than arrives.
 //! 2. **Directional albedo above 1** at any θi of [`ALBEDO_THETA_I_DEG`] (0°–85°), by the
 //!    quadrature of [`directional_albedo`], with a margin of [`ALBEDO_MARGIN`] for its error.
-//! 3. **A lobe held down by F ≈ 0**: the Fresnel index is at its lower bound
-//!    (n − 1 ≤ 2 (n_lo − 1), so F0 ≤ 1e-8) and the same fit with F = 1 (the index at its upper
-//!    bound, which every real index approaches at grazing incidence) has a directional
-//!    albedo above 1 + [`ALBEDO_MARGIN`]: the data fix only the product ps·F, the fit
-//!    reached it with a vanishing F and a huge ps, and the material it names does not exist
-//!    (MERL steel, edge lit: GGX α 0.0075, n = 1.0001, ps = 10217).
+//! 3. **A lobe held down by F ≈ 0**: the Fresnel index is at or near its lower bound 1.0001
+//!    (n ≤ [`LOWEST_INDEX`], F0 ≤ 2.5e-5, below any solid's) and the same fit with F = 1 (the
+//!    index at its upper bound, which every real index approaches at grazing incidence) has
+//!    a directional albedo above 1 + [`ALBEDO_MARGIN`]: the data fix only the product ps·F,
+//!    the fit reached it with a vanishing F and a huge ps, and the material it names does not
+//!    exist (MERL steel, edge lit: GGX α 0.0075, n = 1.0001, ps = 10217; MERL aluminium,
+//!    edge lit: Torrance–Sparrow D3 c3 0.013, n = 1.00022, ps = 3.2e6).
 
 use super::FitResult;
 use crate::model::albedo::{ALBEDO_THETA_I_DEG, directional_albedo, max_albedo};
@@ -18,6 +19,10 @@ use crate::model::{Model, Role, readable};
 /// Albedo above 1 by more than this marks a fit: ten times the quadrature's worst error on a
 /// sharp lobe (tests/albedo.rs).
 pub const ALBEDO_MARGIN: f64 = 1e-3;
+
+/// An index at or below this is "at its lower bound" for rule 3: F0 = ((n − 1)/(n + 1))² ≤
+/// 2.5e-5, below any solid's (the lowest, silica aerogels, reach n ≈ 1.01–1.05).
+pub const LOWEST_INDEX: f64 = 1.01;
 
 /// Why the model of one channel is not a physical material (empty when it is).
 pub fn model_problems(m: &Model) -> Vec<String> {
@@ -41,7 +46,7 @@ pub fn model_problems(m: &Model) -> Vec<String> {
     if let Some(k) = m.kind.index_of(m.dist, Role::Index) {
         let spec = &m.specs()[k];
         let n = m.p[k];
-        if n - 1.0 <= 2.0 * (spec.lo - 1.0) {
+        if n <= LOWEST_INDEX {
             let mut unit = m.params().to_vec();
             unit[k] = spec.hi;
             let unit = m.with_params(&unit);
@@ -52,7 +57,7 @@ pub fn model_problems(m: &Model) -> Vec<String> {
             if a > 1.0 + ALBEDO_MARGIN {
                 let ps = m.role(Role::Specular).unwrap_or(f64::NAN);
                 out.push(format!(
-                    "n = {} is at its lower bound, where F ≈ 0 holds the lobe down: with F = 1 \
+                    "n = {} is at or near its lower bound, where F ≈ 0 holds the lobe down: with F = 1 \
                      (any real index at grazing incidence) ps = {} would give a directional \
                      albedo of {} at θi = {t}°; fix n to a physical index (--fix n=1.5) or \
                      fit another model",

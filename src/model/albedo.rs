@@ -4,47 +4,66 @@
 //!
 //! Quadrature: composite Gauss–Legendre (6 points a panel) in θo ∈ [0, π/2] and φo ∈ [0, π]
 //! (doubled: every model is symmetric about the plane of incidence), with panels that grow
-//! geometrically (×3, at most 0.4 rad wide) away from the mirror direction (θo = θi,
-//! φo = π) from 1e-5 rad, so a lobe of any width down to the models' sharpest (GGX α = 1e-4)
-//! is resolved, and a smooth integrand (Lambert) is integrated to about 1e-15. About 12,000
-//! evaluations per θi (tests/albedo.rs checks it against values worked by hand).
+//! geometrically (×3, at most 0.8 rad wide) away from the mirror direction (θo = θi,
+//! φo = π) from a first panel over which the lobe is flat (1e-5 to 0.03 rad, probed), so a
+//! lobe of any width down to the models' sharpest (GGX α = 1e-4) is resolved, and a smooth
+//! integrand (Lambert) is integrated to about 1e-15. 2,000–8,000 evaluations per θi
+//! (tests/albedo.rs checks it against values worked by hand).
 
 use super::{Geometry, Model};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Gauss–Legendre nodes and weights on [−1, 1], 6 points (Abramowitz & Stegun, Table 25.4).
 const GL6: [(f64, f64); 6] = [
-    (-0.932_469_514_203_152_1, 0.171_324_492_379_170_4),
+    (-0.932_469_514_203_152, 0.171_324_492_379_170_4),
     (-0.661_209_386_466_264_5, 0.360_761_573_048_138_6),
-    (-0.238_619_186_083_196_9, 0.467_913_934_572_691_0),
-    (0.238_619_186_083_196_9, 0.467_913_934_572_691_0),
+    (-0.238_619_186_083_196_9, 0.467_913_934_572_691),
+    (0.238_619_186_083_196_9, 0.467_913_934_572_691),
     (0.661_209_386_466_264_5, 0.360_761_573_048_138_6),
-    (0.932_469_514_203_152_1, 0.171_324_492_379_170_4),
+    (0.932_469_514_203_152, 0.171_324_492_379_170_4),
 ];
 
-/// Width of the panels next to the mirror direction (radians).
-const FIRST_PANEL: f64 = 1e-5;
+/// Width of the panels next to the mirror direction (radians): the narrowest, and the widest
+/// used where the lobe is broad or absent (see [`first_panel`]).
+const FIRST_PANEL: (f64, f64) = (1e-5, 0.03);
 
 /// Growth of the panels away from the mirror direction.
 const GROWTH: f64 = 3.0;
 
 /// The widest panel (radians): a smooth integrand (a diffuse term) is integrated to ~1e-15.
-const WIDEST_PANEL: f64 = 0.4;
+const WIDEST_PANEL: f64 = 0.8;
 
 /// The incidence angles (degrees) at which [`max_albedo`] checks energy conservation: 0° to
-/// 85° in 5° steps (beyond 85° nothing is measured and every model's value is extrapolated).
-pub const ALBEDO_THETA_I_DEG: [f64; 18] = [
-    0.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 45.0, 50.0, 55.0, 60.0, 65.0, 70.0, 75.0,
-    80.0, 85.0,
-];
+/// 80° in 10° steps and 85° (beyond 85° nothing is measured and every model's value is
+/// extrapolated; ρ(θi) is smooth in θi, so a 10° grid finds where it exceeds 1).
+pub const ALBEDO_THETA_I_DEG: [f64; 10] =
+    [0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 85.0];
 
-/// Panel ends on [lo, hi] growing geometrically (×2 from [`FIRST_PANEL`]) away from `centre`.
-fn graded(lo: f64, hi: f64, centre: f64) -> Vec<f64> {
+/// The first panel's width for light at `theta_i`: the largest step 1e-5·3^k (within
+/// [`FIRST_PANEL`]) over which f_r, probed from the mirror direction towards the normal in the
+/// plane of incidence, stays within 10 % of its mirror value: the lobe is flat on that panel,
+/// whatever the model (a broad lobe needs far fewer panels than a mirror-sharp one).
+fn first_panel(model: &Model, theta_i: f64) -> f64 {
+    let f = |d: f64| model.brdf(&Geometry::from_angles(theta_i, 0.0, theta_i - d, PI));
+    let peak = f(0.0);
+    let mut h = FIRST_PANEL.0;
+    while h * GROWTH <= FIRST_PANEL.1 {
+        let v = f(h * GROWTH);
+        if !((v - peak).abs() <= 0.1 * peak.abs()) {
+            break;
+        }
+        h *= GROWTH;
+    }
+    h
+}
+
+/// Panel ends on [lo, hi] growing geometrically (×[`GROWTH`] from `first`) away from `centre`.
+fn graded(lo: f64, hi: f64, centre: f64, first: f64) -> Vec<f64> {
     let mut ends = vec![lo, hi];
     if centre > lo && centre < hi {
         ends.push(centre);
     }
-    let mut h = FIRST_PANEL;
+    let mut h = first;
     while h < hi - lo {
         for x in [centre - h, centre + h] {
             if x > lo && x < hi {
@@ -76,8 +95,9 @@ fn nodes(ends: &[f64]) -> Vec<(f64, f64)> {
 
 /// Directional albedo ρ(θi) = ∫ f_r cosθo dω_o of `model` for light at `theta_i` (radians).
 pub fn directional_albedo(model: &Model, theta_i: f64) -> f64 {
-    let theta = nodes(&graded(0.0, FRAC_PI_2, theta_i));
-    let phi = nodes(&graded(0.0, PI, PI));
+    let first = first_panel(model, theta_i);
+    let theta = nodes(&graded(0.0, FRAC_PI_2, theta_i, first));
+    let phi = nodes(&graded(0.0, PI, PI, first));
     let cos_phi: Vec<(f64, f64)> = phi.iter().map(|&(p, w)| (p.cos(), w)).collect();
     let (si, ci) = theta_i.sin_cos();
     let mut sum = 0.0;
