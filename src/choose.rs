@@ -1163,13 +1163,24 @@ impl crate::plot::Chart for TradeoffChart {
             .margin(14)
             .x_label_area_size(46)
             .y_label_area_size(64)
-            .build_cartesian_2d((lx0..lx1).log_scale(), 0.0..y1 * 1.12)
+            // Room below 0, so a point with no error is not on the axis and its label fits
+            // on its own line.
+            .build_cartesian_2d((lx0..lx1).log_scale(), -0.06 * y1..y1 * 1.12)
             .map_err(crate::plot::err)?;
         chart
             .configure_mesh()
             .x_desc("fit + render time (s, log scale)")
             .y_desc(metric.key())
+            // Enough ticks that 1-2-5 values inside the decade are labelled, not only 0.1.
+            .x_labels(30)
             .x_label_formatter(&|v| crate::plot::log_tick(*v))
+            .y_label_formatter(&|v| {
+                if *v < -1e-12 {
+                    String::new()
+                } else {
+                    crate::plot::tick(*v)
+                }
+            })
             .label_style(("sans-serif", 13))
             .axis_desc_style(("sans-serif", 14))
             .light_line_style(RGBColor(235, 235, 235))
@@ -1181,29 +1192,41 @@ impl crate::plot::Chart for TradeoffChart {
                 RGBColor(200, 0, 0).stroke_width(1),
             )))
             .map_err(crate::plot::err)?;
+        let th_at = (lx0 * 1.05, self.threshold.value + 0.02 * y1);
         chart
             .draw_series(std::iter::once(Text::new(
                 format!("threshold {}", self.threshold.value),
-                (lx0 * 1.05, self.threshold.value + 0.02 * y1),
+                th_at,
                 ("sans-serif", 13).into_font().color(&RGBColor(200, 0, 0)),
             )))
             .map_err(crate::plot::err)?;
-        // Points first, then direct labels placed greedily so none overlaps another.
-        let mut placed: Vec<(i32, i32, i32, i32)> = Vec::new();
-        let mut order: Vec<usize> = (0..pts.len()).collect();
-        order.sort_by(|&a, &b| pts[b].1.total_cmp(&pts[a].1));
-        for k in order {
-            let (x, y, m) = pts[k];
-            let chosen = self.case.chosen.as_deref() == Some(&m.model);
-            let colour = if y <= self.threshold.value {
+        // Points first, then direct labels placed greedily so none overlaps another, nor the
+        // threshold line and its label.
+        let (xr, yr) = chart.plotting_area().get_pixel_range();
+        let (tx, ty) = chart.backend_coord(&th_at);
+        let (_, line_y) = chart.backend_coord(&(lx0, self.threshold.value));
+        let mut placed: Vec<(i32, i32, i32, i32)> = vec![
+            (tx, ty, tx + 110, ty + 16),
+            (xr.start, line_y - 1, xr.end, line_y + 1),
+        ];
+        let colour_of = |y: f64| {
+            if y <= self.threshold.value {
                 RGBColor(0, 120, 60)
             } else {
                 RGBColor(60, 60, 60)
-            };
+            }
+        };
+        // Every point (and the chosen one's ring) is drawn and kept free of labels first.
+        for &(x, y, m) in &pts {
+            let chosen = self.case.chosen.as_deref() == Some(&m.model);
             chart
-                .draw_series(std::iter::once(Circle::new((x, y), 4, colour.filled())))
+                .draw_series(std::iter::once(Circle::new(
+                    (x, y),
+                    4,
+                    colour_of(y).filled(),
+                )))
                 .map_err(crate::plot::err)?;
-            if chosen {
+            let r = if chosen {
                 chart
                     .draw_series(std::iter::once(Circle::new(
                         (x, y),
@@ -1211,16 +1234,39 @@ impl crate::plot::Chart for TradeoffChart {
                         RGBColor(200, 0, 0).stroke_width(2),
                     )))
                     .map_err(crate::plot::err)?;
-            }
+                10
+            } else {
+                5
+            };
+            let (px, py) = chart.backend_coord(&(x, y));
+            placed.push((px - r, py - r, px + r, py + r));
+        }
+        // Then the labels, lowest error first (the chosen model's and its neighbours' nearest
+        // their points); a label moved off its point's line is joined to it by a leader line.
+        let mut order: Vec<usize> = (0..pts.len()).collect();
+        order.sort_by(|&a, &b| pts[a].1.total_cmp(&pts[b].1));
+        for k in order {
+            let (x, y, m) = pts[k];
+            let chosen = self.case.chosen.as_deref() == Some(&m.model);
+            let colour = colour_of(y);
             let label = format!("{}{}", m.model, if chosen { " (chosen)" } else { "" });
             let (px, py) = chart.backend_coord(&(x, y));
-            let (xr, yr) = chart.plotting_area().get_pixel_range();
+            let h = 16;
+            let w = 7 * label.chars().count() as i32;
             let (left, top) = crate::plot::place_label(
                 &mut placed,
                 (px + 2, py),
-                (7 * label.chars().count() as i32, 16),
+                (w, h),
                 (xr.start, yr.start, xr.end, yr.end),
             );
+            if crate::plot::needs_leader(py, top, h) {
+                let end = if left > px { left } else { left + w };
+                root.draw(&PathElement::new(
+                    vec![(px, py), (end, top + h / 2)],
+                    colour.mix(0.6).stroke_width(1),
+                ))
+                .map_err(crate::plot::err)?;
+            }
             root.draw(&Text::new(
                 label,
                 (left, top),

@@ -61,18 +61,101 @@ fn esc(s: &str) -> String {
         .replace('"', "&quot;")
 }
 
+/// Text for HTML with its Markdown code spans rendered: escaped, and each `…` pair of
+/// backticks shown as `<code>…</code>` (an unpaired backtick stays as it is).
+pub fn inline_html(s: &str) -> String {
+    let parts: Vec<&str> = s.split('`').collect();
+    let mut out = String::new();
+    for (k, part) in parts.iter().enumerate() {
+        let code = k % 2 == 1 && k + 1 < parts.len();
+        if code {
+            let _ = write!(out, "<code>{}</code>", esc(part));
+        } else {
+            if k % 2 == 1 {
+                out.push('`');
+            }
+            out.push_str(&esc(part));
+        }
+    }
+    out
+}
+
+/// Channels up to which a data file's summary lists each channel's value range inline; with
+/// more (a 31-wavelength file) the ranges are folded under one overall line.
+const RANGES_INLINE: usize = 6;
+
+/// The summary of a data file (`brdfit info`) as it opens a data set's section: with more
+/// than [`RANGES_INLINE`] channels, their per-channel `range` lines become one line (the
+/// overall range and the count) and the list is folded away (HTML `<details>`), so the
+/// results are not pushed down by 31 lines of ranges.
+pub fn folded_summary(text: &str) -> (String, Option<String>) {
+    let ranges: Vec<&str> = text.lines().filter(|l| l.starts_with("range ")).collect();
+    if ranges.len() <= RANGES_INLINE {
+        return (text.to_string(), None);
+    }
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for l in &ranges {
+        let w: Vec<&str> = l.split_whitespace().collect();
+        if let (Some(a), Some(b)) = (
+            w.get(2).and_then(|v| v.parse::<f64>().ok()),
+            w.get(4).and_then(|v| v.parse::<f64>().ok()),
+        ) {
+            lo = lo.min(a);
+            hi = hi.max(b);
+        }
+    }
+    let mut head = String::new();
+    let mut said = false;
+    for l in text.lines() {
+        if l.starts_with("range ") {
+            if !said {
+                let _ = writeln!(
+                    head,
+                    "range:       {lo:.6e} … {hi:.6e} over all {} channels (each below)",
+                    ranges.len()
+                );
+                said = true;
+            }
+        } else {
+            head.push_str(l);
+            head.push('\n');
+        }
+    }
+    let mut list = ranges.join("\n");
+    list.push('\n');
+    (head, Some(list))
+}
+
 impl Doc {
     fn h(&mut self, level: usize, text: &str, id: &str) {
         let _ = writeln!(self.html, "<h{level} id=\"{id}\">{}</h{level}>", esc(text));
         let _ = writeln!(self.md, "\n{} {text}\n", "#".repeat(level));
     }
     fn p(&mut self, text: &str) {
-        let _ = writeln!(self.html, "<p>{}</p>", esc(text));
+        let _ = writeln!(self.html, "<p>{}</p>", inline_html(text));
         let _ = writeln!(self.md, "{text}\n");
     }
     fn pre(&mut self, text: &str) {
         let _ = writeln!(self.html, "<pre>{}</pre>", esc(text));
         let _ = writeln!(self.md, "```text\n{}```\n", text);
+    }
+    /// A data file's summary, its per-channel ranges folded when there are many
+    /// ([`folded_summary`]).
+    fn info(&mut self, text: &str) {
+        let (head, list) = folded_summary(text);
+        self.pre(&head);
+        if let Some(list) = list {
+            let n = list.lines().count();
+            let _ = writeln!(
+                self.html,
+                "<details><summary>value range of each of the {n} channels</summary><pre>{}</pre></details>",
+                esc(&list)
+            );
+            let _ = writeln!(
+                self.md,
+                "<details><summary>value range of each of the {n} channels</summary>\n\n```text\n{list}```\n\n</details>\n"
+            );
+        }
     }
     fn table(&mut self, head: &[&str], rows: &[Vec<String>]) {
         self.html.push_str("<table>\n<tr>");
@@ -85,7 +168,7 @@ impl Doc {
         for r in rows {
             self.html.push_str("<tr>");
             for c in r {
-                let _ = write!(self.html, "<td>{}</td>", esc(c));
+                let _ = write!(self.html, "<td>{}</td>", inline_html(c));
             }
             self.html.push_str("</tr>\n");
             let _ = writeln!(self.md, "| {} |", r.join(" | "));
@@ -100,12 +183,16 @@ impl Doc {
             self.html,
             "<figure><img src=\"{png}\" alt=\"{}\"><figcaption>{}{link}</figcaption></figure>",
             esc(caption),
-            esc(caption)
+            inline_html(caption)
         );
         let _ = writeln!(self.md, "![{caption}]({png})\n");
     }
     fn link(&mut self, href: &str, text: &str) {
-        let _ = writeln!(self.html, "<p><a href=\"{href}\">{}</a></p>", esc(text));
+        let _ = writeln!(
+            self.html,
+            "<p><a href=\"{href}\">{}</a></p>",
+            inline_html(text)
+        );
         let _ = writeln!(self.md, "[{text}]({href})\n");
     }
 }
@@ -170,7 +257,7 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
         let (ds, channel_note) = data::representative_channel(&full).map_err(anyhow::Error::msg)?;
         toc.push((name.clone(), name.clone()));
         doc.h(2, &format!("{name} ({})", file.display()), &name);
-        doc.pre(&data::summary(&full));
+        doc.info(&data::summary(&full));
         for w in &full.meta.warnings {
             eprintln!("warning: {w}");
             doc.p(&format!("Warning: {w}"));
@@ -251,7 +338,7 @@ fn summary_row(
     let mut flags = f.flags();
     let unusable = fits.iter().filter(|f| !f.usable()).count();
     if unusable > 0 {
-        flags.push(format!("{unusable} fit(s) not usable"));
+        flags.push(format!("not usable: {unusable} of {} fits", fits.len()));
     }
     vec![
         set.name.clone(),
@@ -263,7 +350,7 @@ fn summary_row(
         },
         params.join(", "),
         format!("{verified}/{} fits", fits.len()),
-        flags.join(" "),
+        flags.join(", "),
         needs.first().cloned().unwrap_or_default(),
         needs.get(1).cloned().unwrap_or_default(),
     ]
@@ -801,7 +888,7 @@ fn assemble(
     t_all: Instant,
 ) -> Result<()> {
     let mut html = String::from(
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>brdfit report</title>\n<style>\nbody{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}\ntable{border-collapse:collapse;margin:0.5em 0}\ntd,th{border:1px solid #bbb;padding:3px 8px;text-align:left}\ntd.short{white-space:nowrap}\nimg{max-width:100%}\nfigure{margin:1em 0}\nfigure.small{display:inline-block;width:24%;margin:0.3em}\npre{background:#f4f4f4;padding:0.6em;overflow-x:auto}\n</style>\n</head>\n<body>\n<h1>brdfit report</h1>\n",
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>brdfit report</title>\n<style>\nbody{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}\ntable{border-collapse:collapse;margin:0.5em 0}\ntd,th{border:1px solid #bbb;padding:3px 8px;text-align:left}\ntd.short{white-space:nowrap}\nimg{max-width:100%}\nfigure{margin:1em 0}\nfigure.small{display:inline-block;width:24%;margin:0.3em}\npre{background:#f4f4f4;padding:0.6em;overflow-x:auto}\n@media print{pre{white-space:pre-wrap;overflow:visible;overflow-wrap:anywhere}}\n</style>\n</head>\n<body>\n<h1>brdfit report</h1>\n",
     );
     let mut md = String::from("# brdfit report\n\n");
     let head = [
@@ -814,7 +901,7 @@ fn assemble(
         "front lit needs",
         "edge lit needs",
     ];
-    html.push_str("<p>The answer for each data set first: the model its data support, and the simplest model each lighting of Blinn's Figure 7 needs (judged by images, ꟻLIP p99 ≤ 0.05). Flags: <code>weak:NAME</code> a parameter only weakly determined by the data, <code>bound:NAME</code> on a bound. Details per data set follow, then Blinn's Figures 5–7. Every fit is in <a href=\"results.json\">results.json</a>; run times in <a href=\"timings.json\">timings.json</a>; the same content as Markdown in <a href=\"report.md\">report.md</a>.</p>\n<table>\n<tr>");
+    html.push_str("<p>The answer for each data set first: the model its data support, and the simplest model each lighting of Blinn's Figure 7 needs (judged by images, ꟻLIP p99 ≤ 0.05). Flags: <code>weak:NAME</code> a parameter only weakly determined by the data, <code>bound:NAME</code> on a bound, <code>not usable: N of M fits</code> how many of the data set's model fits failed a check (the reasons are under its parameters). Details per data set follow, then Blinn's Figures 5–7. Every fit is in <a href=\"results.json\">results.json</a>; run times in <a href=\"timings.json\">timings.json</a>; the same content as Markdown in <a href=\"report.md\">report.md</a>.</p>\n<table>\n<tr>");
     md.push_str("The answer for each data set first; details per data set follow, then Blinn's Figures 5–7. Every fit is in [results.json](results.json); run times in [timings.json](timings.json).\n\n");
     for h in head {
         let _ = write!(html, "<th>{}</th>", esc(h));
@@ -960,9 +1047,9 @@ fn md_table_to_html(md: &str) -> String {
             // A short cell (a number, a count, a name) is never broken, say at the hyphen of
             // 3.2e-2.
             if tag == "td" && c.chars().count() <= 18 {
-                let _ = write!(out, "<td class=\"short\">{}</td>", esc(c));
+                let _ = write!(out, "<td class=\"short\">{}</td>", inline_html(c));
             } else {
-                let _ = write!(out, "<{tag}>{}</{tag}>", esc(c));
+                let _ = write!(out, "<{tag}>{}</{tag}>", inline_html(c));
             }
         }
         out.push_str("</tr>\n");
@@ -984,4 +1071,44 @@ fn ts_index(fits: &[FitResult]) -> usize {
             f.model == ModelKind::TorranceSparrow && f.dist == crate::model::Distribution::D3
         })
         .expect("all_models has d3")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn code_spans_become_code_elements() {
+        assert_eq!(
+            inline_html("run `brdfit choose` then `a<b`"),
+            "run <code>brdfit choose</code> then <code>a&lt;b</code>"
+        );
+        // An unpaired backtick is left as written.
+        assert_eq!(inline_html("x ` y"), "x ` y");
+        assert_eq!(inline_html("`a` b ` c"), "<code>a</code> b ` c");
+        assert_eq!(inline_html("plain & simple"), "plain &amp; simple");
+    }
+
+    /// Three channels are listed as they are; eight are folded into one line with the
+    /// overall range (the smallest low, 1e-3, and the largest high, 8) and the count.
+    #[test]
+    fn many_channel_ranges_are_folded() {
+        let few = "file:        x\nrange r      1.0e-1 … 2.0e0\nrange g      1.0e-1 … 2.0e0\nmissing:     0\n";
+        assert_eq!(folded_summary(few), (few.to_string(), None));
+        let mut many = String::from("file:        x\n");
+        for k in 1..=8 {
+            many.push_str(&format!(
+                "range {k}00nm  {:.6e} … {:.6e}\n",
+                k as f64 * 1e-3,
+                k as f64
+            ));
+        }
+        many.push_str("missing:     0\n");
+        let (head, list) = folded_summary(&many);
+        assert_eq!(
+            head,
+            "file:        x\nrange:       1.000000e-3 … 8.000000e0 over all 8 channels (each below)\nmissing:     0\n"
+        );
+        assert_eq!(list.unwrap().lines().count(), 8);
+    }
 }

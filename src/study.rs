@@ -342,9 +342,19 @@ impl crate::plot::Chart for SpeedChart {
                     (y0 / 3.0..y1 * 30.0).log_scale(),
                 )
                 .map_err(crate::plot::err)?;
+            // Points at the floor (the best run, and any within COST_FLOOR of it) are drawn
+            // on it: a dashed line marks it and the axis title says so.
+            let floored = pts.iter().any(|p| p.excess <= COST_FLOOR);
+            let x_desc = if floored {
+                format!(
+                    "fit time (s, log); dashed: the floor {COST_FLOOR:.0e}, points on it are at or below it"
+                )
+            } else {
+                "fit time (s, log)".to_string()
+            };
             chart
                 .configure_mesh()
-                .x_desc("fit time (s, log)")
+                .x_desc(x_desc)
                 .y_desc(panel.y_label.as_str())
                 .x_label_formatter(&|v| crate::plot::log_tick(*v))
                 .y_label_formatter(&|v| format!("{v:.0e}"))
@@ -353,6 +363,16 @@ impl crate::plot::Chart for SpeedChart {
                 .light_line_style(RGBColor(235, 235, 235))
                 .draw()
                 .map_err(crate::plot::err)?;
+            if floored {
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        vec![(x0 / 2.0, COST_FLOOR), (x1 * 6.0, COST_FLOOR)],
+                        6,
+                        4,
+                        RGBColor(120, 120, 120).stroke_width(1),
+                    ))
+                    .map_err(crate::plot::err)?;
+            }
             // The Pareto front as a step line: right along a point's cost, then down.
             let mut front: Vec<&SpeedPoint> = pts.iter().filter(|p| p.front).collect();
             front.sort_by(|a, b| a.seconds.total_cmp(&b.seconds));
@@ -429,6 +449,18 @@ impl crate::plot::Chart for SpeedChart {
                     ))
                     .map_err(crate::plot::err)?;
                 }
+                // On a white box, so no gridline or step line runs through the text.
+                let w = area
+                    .estimate_text_size(&label, &("sans-serif", 12).into_text_style(area))
+                    .map_or(7 * label.chars().count() as i32, |(w, _)| w as i32 + 2);
+                area.draw(&Rectangle::new(
+                    [
+                        (lx - base.0 - 2, ly - base.1 - 1),
+                        (lx - base.0 + w, ly - base.1 + h - 1),
+                    ],
+                    WHITE.mix(0.9).filled(),
+                ))
+                .map_err(crate::plot::err)?;
                 area.draw(&Text::new(
                     label,
                     (lx - base.0, ly - base.1),

@@ -146,7 +146,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                     bail!("unknown quantity '{quantity}'\n  fix: use --quantity intensity or brdf")
                 }
             };
-            if !(tolerance >= 0.0 && tolerance <= 90.0) {
+            if !(0.0..=90.0).contains(&tolerance) {
                 bail!(
                     "--tolerance {tolerance}: not an angle in [0°, 90°]\n  fix: e.g. --tolerance 2.5"
                 );
