@@ -208,7 +208,8 @@ fn closed(key: &str, v: f64, lo: f64, hi: f64) -> Result<f64> {
         Ok(v)
     } else {
         bail!(
-            "{key} = {v} is out of range\n  fix: give a finite number from {} to {}",
+            "{key} = {} is out of range\n  fix: give a finite number from {} to {}",
+            show(v),
             show(lo),
             show(hi)
         )
@@ -221,7 +222,8 @@ fn positive(key: &str, v: f64, hi: f64) -> Result<f64> {
         Ok(v)
     } else {
         bail!(
-            "{key} = {v} is out of range\n  fix: give a finite number greater than 0 and at most {}",
+            "{key} = {} is out of range\n  fix: give a finite number greater than 0 and at most {}",
+            show(v),
             show(hi)
         )
     }
