@@ -12,5 +12,5 @@ run() { mkdir -p "corpus/$1"; cargo fuzz run -O "$1" "corpus/$1" -- -max_total_t
 : > logs/summary.txt
 run csv & run astm & wait
 run cornell & run scene & wait
-run merl
+run merl & run fit_json & wait
 cat logs/summary.txt

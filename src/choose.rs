@@ -134,6 +134,34 @@ pub struct Case {
     pub scene: Scene,
 }
 
+/// Refuse a scene whose test object (`materials[0]`) has no lit pixel: every model would
+/// render it black and score the same. The error says whether the camera sees none of it or
+/// no light reaches what it sees, and the fix.
+pub fn check_test_object(scene: &Scene) -> Result<(), String> {
+    let Some(test) = scene.materials.first() else {
+        return Err(
+            "the scene has no material\n  fix: give it a [materials.NAME] for the test object"
+                .into(),
+        );
+    };
+    let (lit, mask) = scene.lit_configurations(0);
+    if !lit.is_empty() {
+        return Ok(());
+    }
+    let seen = mask.iter().filter(|&&m| m).count();
+    Err(if seen == 0 {
+        format!(
+            "the test object (material {}) has no lit pixel: the camera sees no object of that material, so every model would score the same\n  fix: aim the camera at it, or name the test object with test_object = \"NAME\"",
+            test.name
+        )
+    } else {
+        format!(
+            "the test object (material {}) has no lit pixel: the camera sees {seen} pixels of it, but no light reaches them from above the surface, so every model would score the same\n  fix: move a light so it shines on the side the camera sees (a light inside a closed object reaches nothing)",
+            test.name
+        )
+    })
+}
+
 /// The two lighting cases of Blinn's Figure 7 at `res`², lit by the light alone (no ambient
 /// term, so the images show only the BRDF under the light).
 pub fn fig7_cases(res: u32) -> Vec<Case> {

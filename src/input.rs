@@ -10,9 +10,11 @@ use std::sync::atomic::{AtomicU64, Ordering};
 /// The kinds of input brdfit reads, each with its own default size limit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Input {
-    /// A measurement (CSV, ASTM, Cornell, MERL): 256 MiB.
+    /// A measurement (CSV, ASTM, Cornell, MERL): 64 MiB (a MERL table is 35 MB; the densest
+    /// CSV rows, 10 bytes, take about 100 bytes each in memory).
     Data,
-    /// A fit JSON (`brdfit fit --json`, a report's `results.json`): 16 MiB.
+    /// A fit JSON (`brdfit fit --json`, a report's `results.json`): 4 MiB (as
+    /// `serde_json::Value`, a hostile 4 MB array takes about 300 MB).
     FitJson,
     /// A scene TOML: 1 MiB.
     Scene,
@@ -24,8 +26,8 @@ impl Input {
     /// The default limit in bytes.
     pub fn default_limit(self) -> u64 {
         match self {
-            Input::Data => 256 << 20,
-            Input::FitJson => 16 << 20,
+            Input::Data => 64 << 20,
+            Input::FitJson => 4 << 20,
             Input::Scene => 1 << 20,
             Input::Mesh => 64 << 20,
         }
@@ -170,12 +172,33 @@ pub fn open_limited(path: &Path, kind: Input) -> Result<Limited<std::fs::File>, 
 }
 
 /// Read all of `path`, input of `kind`, within its size limit.
+/// The buffer grows to at most limit + 1 bytes (not by doubling past it), so a device
+/// such as `/dev/zero` costs about the limit in memory.
 pub fn read_limited(path: &Path, kind: Input) -> Result<Vec<u8>, DataError> {
-    let mut bytes = Vec::new();
-    open_limited(path, kind)?
-        .read_to_end(&mut bytes)
-        .map_err(|e| crate::data::io_error(path, &e))?;
-    Ok(bytes)
+    let mut r = open_limited(path, kind)?;
+    let io = |e: std::io::Error| crate::data::io_error(path, &e);
+    let most = usize::try_from(limit(kind)).unwrap_or(usize::MAX - 1) + 1;
+    let size = r.file().metadata().map_err(io)?.len() as usize;
+    let mut bytes = Vec::with_capacity(size.min(most).max(1 << 12));
+    loop {
+        let room = (bytes.capacity() - bytes.len()).max(1);
+        let before = bytes.len();
+        (&mut r)
+            .take(room as u64)
+            .read_to_end(&mut bytes)
+            .map_err(io)?;
+        if bytes.len() == before {
+            return Ok(bytes);
+        }
+        if bytes.len() == bytes.capacity() {
+            bytes.reserve_exact(
+                bytes
+                    .capacity()
+                    .min(most.saturating_sub(bytes.len()))
+                    .max(1),
+            );
+        }
+    }
 }
 
 /// [`read_limited`] as UTF-8 text; a UTF-8 BOM is dropped, invalid UTF-8 is an error that

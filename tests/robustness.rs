@@ -377,3 +377,364 @@ fn named_renderer_cases() {
     assert!(e.to_string().contains("bad.obj:3"), "{e}");
     let _ = Format::Csv;
 }
+
+/// A scene for the catalogue: a Torrance–Sparrow sphere `m` (with roughness texture) on a
+/// checkered plane `floor`, under a point light; `edits` replace text in it.
+fn catalogue_scene(edits: &[(&str, &str)]) -> String {
+    let mut s = r#"ambient = 0.02
+background = 0.0
+min_weight = 0.001
+[camera]
+eye = [0.0, 1.0, 5.0]
+target = [0.0, 0.5, 0.0]
+fov = 40.0
+width = 16
+height = 12
+[antialias]
+mode = "adaptive"
+threshold = 0.05
+[[lights]]
+kind = "point"
+position = [2.0, 4.0, 5.0]
+intensity = 40.0
+[materials.m]
+model = "torrance-sparrow"
+params = { n = 1.8, c3 = 0.3, ps = 0.6, pd = 0.4 }
+color = [0.9, 0.5, 0.3]
+ks = 0.1
+kt = 0.1
+roughness = { cmin = 0.2, frequency = 2.0 }
+[materials.floor]
+model = "lambert"
+params = { pd = 0.8 }
+checker = { size = 0.5, color0 = [0.2, 0.2, 0.2], color1 = [0.8, 0.8, 0.8] }
+[[objects]]
+kind = "sphere"
+center = [0.0, 0.7, 0.0]
+radius = 0.7
+material = "m"
+[[objects]]
+kind = "plane"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+size = 4.0
+material = "floor"
+"#
+    .to_string();
+    for (from, to) in edits {
+        assert!(s.contains(from), "{from}");
+        s = s.replacen(from, to, 1);
+    }
+    s
+}
+
+fn run_brdfit(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_brdfit"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// Exit 1 (not a panic, not success) with each fragment on stderr.
+fn refused(args: &[&str], fragments: &[&str]) {
+    let o = run_brdfit(args);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+    for f in fragments {
+        assert!(err.contains(f), "{args:?}: stderr lacks '{f}':\n{err}");
+    }
+}
+
+/// Issue 26's scene cases: every hostile value is refused naming its key, nothing is written.
+#[test]
+fn scene_catalogue_refuses_each_case_naming_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("out.png");
+    let cases: Vec<(Vec<(&str, &str)>, &str)> = vec![
+        (
+            vec![("ambient = 0.02", "ambient = nan")],
+            "`ambient` = [NaN, NaN, NaN] is out of range",
+        ),
+        (
+            vec![("color = [0.9, 0.5, 0.3]", "color = [nan, 0, 0]")],
+            "`materials.m.color`",
+        ),
+        (
+            vec![("frequency = 2.0", "frequency = 1e308")],
+            "`materials.m.roughness.frequency`",
+        ),
+        (
+            vec![("color1 = [0.8, 0.8, 0.8]", "color1 = [inf, 0.8, 0.8]")],
+            "`materials.floor.checker.color1`",
+        ),
+        (
+            vec![("background = 0.0", "background = [inf, 0, 0]")],
+            "`background`",
+        ),
+        (
+            vec![("color = [0.9, 0.5, 0.3]", "color = 1e308")],
+            "`materials.m.color`",
+        ),
+        (
+            vec![("intensity = 40.0", "intensity = 1e308")],
+            "light 1 (point): `intensity` = 1e308",
+        ),
+        (
+            vec![("min_weight = 0.001", "min_weight = inf")],
+            "`min_weight` = inf",
+        ),
+        (
+            vec![("threshold = 0.05", "threshold = nan")],
+            "`antialias.threshold` = NaN",
+        ),
+        (vec![("ks = 0.1", "ks = nan")], "`materials.m.ks` = NaN"),
+        (vec![("kt = 0.1", "kt = inf")], "`materials.m.kt` = inf"),
+        (vec![("ks = 0.1", "ks = 2")], "`materials.m.ks` = 2"),
+        (
+            vec![("size = 0.5", "size = nan")],
+            "`materials.floor.checker.size` = NaN",
+        ),
+        (
+            vec![("size = 4.0", "size = nan")],
+            "object 2 (plane): `size` = NaN",
+        ),
+        (
+            vec![("size = 4.0", "size = 0")],
+            "object 2 (plane): `size` = 0",
+        ),
+        (
+            vec![("size = 4.0", "size = -inf")],
+            "object 2 (plane): `size` = -inf",
+        ),
+        (
+            vec![("eye = [0.0, 1.0, 5.0]", "eye = [0.0, 1.0, 1e300]")],
+            "`camera.eye`",
+        ),
+        (
+            vec![("radius = 0.7", "radius = inf")],
+            "object 1 (sphere): `radius` = inf is out of range",
+        ),
+        (
+            vec![(
+                "center = [0.0, 0.7, 0.0]\nradius = 0.7",
+                "path = \"/dev/null\"",
+            )],
+            "holds no triangle",
+        ),
+        (
+            vec![
+                ("kind = \"sphere\"", "kind = \"mesh\""),
+                (
+                    "center = [0.0, 0.7, 0.0]\nradius = 0.7",
+                    "path = \"/dev/zero\"",
+                ),
+            ],
+            "above the limit",
+        ),
+        (
+            vec![(
+                "model = \"torrance-sparrow\"\nparams = { n = 1.8, c3 = 0.3, ps = 0.6, pd = 0.4 }",
+                "fit = \"/dev/zero\"",
+            )],
+            "above the limit of 4194304 bytes",
+        ),
+        (
+            vec![("intensity = 40.0", "intensity = 40.0\nintensity = 41.0")],
+            "`intensity` is given twice",
+        ),
+        (
+            vec![("fov = 40.0", "fov = 40.0\nfocus = 2.0")],
+            "unknown field `focus`",
+        ),
+        (vec![("fov = 40.0\n", "")], "missing field `fov`"),
+        (
+            vec![(
+                "frequency = 2.0 }",
+                "frequency = 2.0 }\ntest_object = \"none\"",
+            )],
+            "unknown field `test_object`",
+        ),
+        (
+            vec![("ambient = 0.02", "ambient = 0.02\ntest_object = \"none\"")],
+            "`test_object` = \"none\" names no material",
+        ),
+    ];
+    for (k, (edits, fragment)) in cases.iter().enumerate() {
+        let mut edits = edits.clone();
+        if edits.iter().any(|(_, to)| to.contains("/dev/null")) {
+            edits.insert(0, ("kind = \"sphere\"", "kind = \"mesh\""));
+        }
+        let p = d.join(format!("case{k}.toml"));
+        std::fs::write(&p, catalogue_scene(&edits)).unwrap();
+        refused(
+            &["render", p.to_str().unwrap(), "-o", out.to_str().unwrap()],
+            &[&format!("case{k}.toml"), fragment, "fix:"],
+        );
+        assert!(
+            !out.exists() && !d.join("out.exr").exists(),
+            "case {k} wrote an image"
+        );
+    }
+    // The message for an infinite radius is not "must be positive".
+    let p = d.join("r.toml");
+    std::fs::write(&p, catalogue_scene(&[("radius = 0.7", "radius = inf")])).unwrap();
+    let o = run_brdfit(&["render", p.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("positive"));
+    // The unchanged scene renders.
+    let p = d.join("ok.toml");
+    std::fs::write(&p, catalogue_scene(&[])).unwrap();
+    let o = run_brdfit(&["render", p.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // A 16384² image asks for the flag; the scene reader itself allows up to 16384.
+    let p = d.join("big.toml");
+    std::fs::write(
+        &p,
+        catalogue_scene(&[
+            ("width = 16", "width = 16384"),
+            ("height = 12", "height = 16384"),
+        ]),
+    )
+    .unwrap();
+    refused(
+        &["render", p.to_str().unwrap(), "-o", out.to_str().unwrap()],
+        &["16384×16384", "--allow-large-image"],
+    );
+    refused(
+        &[
+            "render",
+            "fig7",
+            "--res",
+            "8192",
+            "-o",
+            d.join("f7").to_str().unwrap(),
+        ],
+        &["--allow-large-image"],
+    );
+}
+
+/// Readers stop at their size limit: /dev/zero (metadata length 0) and files one byte over;
+/// --max-input-mb changes the limit.
+#[test]
+fn size_limits_stop_devices_and_large_files() {
+    refused(
+        &["render", "/dev/zero", "-o", "/nonexistent/x.png"],
+        &[
+            "/dev/zero",
+            "scene file",
+            "above the limit",
+            "--max-input-mb",
+        ],
+    );
+    refused(
+        &["info", "/dev/zero", "--format", "csv"],
+        &["/dev/zero", "data file", "above the limit"],
+    );
+    refused(
+        &["info", "/dev/zero", "--format", "astm"],
+        &["above the limit"],
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("two-mb.csv");
+    let mut body = b"theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,brdf\n".to_vec();
+    while body.len() < 2 << 20 {
+        body.extend_from_slice(b"10,0,10,180,0.5\n");
+    }
+    std::fs::write(&p, &body).unwrap();
+    let ps = p.to_str().unwrap();
+    assert!(run_brdfit(&["info", ps]).status.success());
+    refused(
+        &["info", ps, "--max-input-mb", "1"],
+        &["two-mb.csv", "above the limit of 1048576 bytes"],
+    );
+    assert!(
+        run_brdfit(&["info", ps, "--max-input-mb", "3"])
+            .status
+            .success()
+    );
+}
+
+/// `choose` refuses a scene whose test object has no lit pixel, saying why.
+#[test]
+fn choose_refuses_a_test_object_with_no_lit_pixel() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let data = root().join("data/blinn-mgo.csv");
+    let cases = [
+        // The camera looks away from everything.
+        (
+            catalogue_scene(&[("target = [0.0, 0.5, 0.0]", "target = [0.0, 1.0, 10.0]")]),
+            "the camera sees no object of that material",
+        ),
+        // The only light inside the sphere.
+        (
+            catalogue_scene(&[("position = [2.0, 4.0, 5.0]", "position = [0.0, 0.7, 0.0]")]),
+            "no light reaches them",
+        ),
+    ];
+    for (k, (text, fragment)) in cases.iter().enumerate() {
+        let p = d.join(format!("dark{k}.toml"));
+        std::fs::write(&p, text).unwrap();
+        refused(
+            &[
+                "choose",
+                data.to_str().unwrap(),
+                "--scene",
+                p.to_str().unwrap(),
+                "-o",
+                d.join("c").to_str().unwrap(),
+            ],
+            &[
+                &format!("dark{k}.toml"),
+                "has no lit pixel",
+                fragment,
+                "fix:",
+            ],
+        );
+        assert!(!d.join("c").exists());
+    }
+}
+
+/// The test object is the first material in file order (not by name), or `test_object`.
+#[test]
+fn the_test_object_is_first_in_file_order_or_named() {
+    use brdfit::render::scene::parse_scene;
+    // `zfloor` comes first in the file and last by name.
+    let text = catalogue_scene(&[]).replace("floor", "zfloor");
+    let text = text.replacen(
+        "[materials.m]",
+        "[materials.zfloor0]\nmodel = \"lambert\"\nparams = { pd = 0.1 }\n[materials.m]",
+        1,
+    );
+    let s = parse_scene(&text, Path::new(".")).unwrap();
+    let names: Vec<&str> = s.materials.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names, ["zfloor0", "m", "zfloor"]);
+    let s = parse_scene(&format!("test_object = \"zfloor\"\n{text}"), Path::new(".")).unwrap();
+    let names: Vec<&str> = s.materials.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names, ["zfloor", "zfloor0", "m"]);
+    // Objects still reach their own materials after the reordering.
+    assert_eq!(s.materials[s.objects[0].material].name, "m");
+    assert_eq!(s.materials[s.objects[1].material].name, "zfloor");
+}
+
+/// An image with a NaN or infinite pixel is an error, not a file.
+#[test]
+fn a_non_finite_pixel_is_never_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut img = brdfit::render::Image {
+        width: 3,
+        height: 2,
+        pixels: vec![[0.5; 3]; 6],
+        rays: [6, 0, 0, 0],
+    };
+    img.pixels[4] = [0.1, f32::INFINITY, 0.2];
+    let base = dir.path().join("img");
+    let e = brdfit::render::save(&img, &base).unwrap_err().to_string();
+    assert!(
+        e.contains("1 pixels that are not finite") && e.contains("x = 1, y = 1"),
+        "{e}"
+    );
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    img.pixels[4] = [0.1, 0.2, 0.3];
+    assert_eq!(brdfit::render::save(&img, &base).unwrap().len(), 2);
+}

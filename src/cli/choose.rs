@@ -97,39 +97,13 @@ pub(crate) fn run_choose(a: ChooseArgs) -> Result<()> {
     } else {
         let path = Path::new(&a.scene);
         let scene = brdfit::render::scene::load_scene(path)?;
-        if scene.materials.is_empty() {
-            bail!(
-                "{}: the scene has no material\n  fix: give it a [materials.NAME] for the test object",
-                path.display()
-            );
-        }
         brdfit::render::check_image_size(
             scene.camera.width,
             scene.camera.height,
             a.allow_large_image,
         )
         .map_err(|e| anyhow!("{}: camera: {e}", path.display()))?;
-        let test = &scene.materials[0].name;
-        let (lit, mask) = scene.lit_configurations(0);
-        if lit.is_empty() {
-            let seen = mask.iter().filter(|&&m| m).count();
-            bail!(
-                "{}: the test object (material {test}) has no lit pixel: {}, so every model would score the same\n  fix: {}",
-                path.display(),
-                if seen == 0 {
-                    "the camera sees no object of that material".to_string()
-                } else {
-                    format!(
-                        "the camera sees {seen} pixels of it, but no light reaches them from above the surface"
-                    )
-                },
-                if seen == 0 {
-                    "aim the camera at the test object, or name the test object with test_object = \"NAME\""
-                } else {
-                    "move a light so it shines on the side the camera sees (a light inside a closed object reaches nothing)"
-                }
-            );
-        }
+        choose::check_test_object(&scene).map_err(|e| anyhow!("{}: {e}", path.display()))?;
         let name = path
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())

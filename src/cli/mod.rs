@@ -40,7 +40,7 @@ pub(crate) struct Cli {
     /// More detail on stderr (timings).
     #[arg(long, short, global = true)]
     pub(crate) verbose: bool,
-    /// Size limit of every input file in MB (default: 256 for data files, 16 for fit JSON,
+    /// Size limit of every input file in MB (default: 64 for data files, 4 for fit JSON,
     /// 1 for scene files, 64 for OBJ meshes).
     #[arg(long, global = true, value_name = "MB", value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
     pub(crate) max_input_mb: Option<u64>,

@@ -61,6 +61,8 @@ pub const MAX_SIZE: f64 = 1e6;
 pub const MAX_RADIANCE: f64 = 1e6;
 /// Largest light intensity, and largest product of a light's colour and intensity.
 pub const MAX_INTENSITY: f64 = 1e12;
+/// Most triangles of an OBJ mesh (with its BVH, about 200 bytes each).
+pub const MAX_TRIANGLES: usize = 4_000_000;
 /// Largest roughness-texture frequency and checker square size.
 pub const MAX_FREQUENCY: f64 = 1e6;
 
@@ -212,7 +214,8 @@ fn closed(key: &str, v: f64, lo: f64, hi: f64) -> Result<f64> {
         Ok(v)
     } else {
         bail!(
-            "{key} = {v} is out of range\n  fix: give a finite number from {} to {}",
+            "{key} = {} is out of range\n  fix: give a finite number from {} to {}",
+            show(v),
             show(lo),
             show(hi)
         )
@@ -225,7 +228,8 @@ fn positive(key: &str, v: f64, hi: f64) -> Result<f64> {
         Ok(v)
     } else {
         bail!(
-            "{key} = {v} is out of range\n  fix: give a finite number greater than 0 and at most {}",
+            "{key} = {} is out of range\n  fix: give a finite number greater than 0 and at most {}",
+            show(v),
             show(hi)
         )
     }
@@ -773,7 +777,8 @@ pub fn load_scene(path: &Path) -> Result<Scene> {
 }
 
 /// Read the `v` and `f` lines of an OBJ file (polygons fanned into triangles; negative
-/// indices count from the end).
+/// indices count from the end), within the mesh size limit ([`crate::input`]) and at most
+/// [`MAX_TRIANGLES`] triangles.
 pub fn read_obj(path: &Path) -> Result<Mesh> {
     let text = crate::input::read_to_string_limited(path, crate::input::Input::Mesh)?;
     let mut verts: Vec<DVec3> = Vec::new();
@@ -819,6 +824,13 @@ pub fn read_obj(path: &Path) -> Result<Mesh> {
                         Ok(k as usize)
                     })
                     .collect::<Result<_>>()?;
+                if tris.len() + idx.len().saturating_sub(2) > MAX_TRIANGLES {
+                    bail!(
+                        "{}:{}: the mesh has more than {MAX_TRIANGLES} triangles (about 200 bytes of memory each)\n  fix: simplify the mesh",
+                        path.display(),
+                        ln + 1
+                    );
+                }
                 for k in 1..idx.len().saturating_sub(1) {
                     tris.push([verts[idx[0]], verts[idx[k]], verts[idx[k + 1]]]);
                 }
