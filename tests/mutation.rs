@@ -303,6 +303,17 @@ fn consumers(
         ],
         vec![o("inverse.csv")],
     );
+    // Consumers of one channel take the channel of the fit that was changed (an RGB file's
+    // other channels, or the data's first channel, would not show the change).
+    if let Some(c) = channel.filter(|c| ["r", "g", "b"].contains(c)) {
+        for (args, _) in &mut v {
+            let one = matches!(args[0].as_str(), "plot" | "inverse")
+                || (args[0] == "render" && args[1] == "fig7");
+            if one {
+                args.extend(["--channel".into(), c.into()]);
+            }
+        }
+    }
     v
 }
 
