@@ -980,7 +980,7 @@ fn fit_files_are_read_strictly_by_every_consumer() {
         (
             "n_half",
             ts(r#"{"n": 0.5, "c3": 0.35, "ps": 0.667, "pd": 0.333}"#, ""),
-            vec!["params.n = 0.5", "n ≥ 1"],
+            vec!["params.n = 0.5", "1 ≤ n ≤ 1e7"],
         ),
         (
             "c3_neg",
