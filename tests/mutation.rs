@@ -50,7 +50,8 @@ enum Mutation {
     NoFits,
     /// The file cut at a random byte.
     Truncated,
-    /// The fit marked not usable.
+    /// Every fit of the file marked not usable (a file of several models whose others are
+    /// usable stays usable: consumers take a usable recommended one).
     Unusable,
 }
 
@@ -90,6 +91,12 @@ fn mutate(src: &str, m: Mutation, rng: &mut impl Rng) -> Option<(String, Option<
     }
     if m == Mutation::NoFits {
         return Some((r#"{"fits": []}"#.into(), None));
+    }
+    if m == Mutation::Unusable {
+        for f in fits_mut(&mut v) {
+            f["unusable"] = Value::from(vec!["edited by hand: not usable"]);
+        }
+        return Some((serde_json::to_string_pretty(&v).unwrap(), None));
     }
     let mut fits = fits_mut(&mut v);
     let models: std::collections::BTreeSet<String> = fits
@@ -168,10 +175,7 @@ fn mutate(src: &str, m: Mutation, rng: &mut impl Rng) -> Option<(String, Option<
         }
         Mutation::BadDistribution => fit["distribution"] = Value::from("d9"),
         Mutation::BadModel => fit["model"] = Value::from("torrance-sparow"),
-        Mutation::Unusable => {
-            fit["unusable"] = Value::from(vec!["edited by hand: not usable"]);
-        }
-        Mutation::Truncated | Mutation::NoFits => unreachable!(),
+        Mutation::Truncated | Mutation::NoFits | Mutation::Unusable => unreachable!(),
     }
     Some((serde_json::to_string_pretty(&v).unwrap(), channel))
 }
