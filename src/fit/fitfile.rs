@@ -876,17 +876,40 @@ impl Picked {
             }
         }
         let exact = differs.is_empty();
+        // Each channel's (ps, pd): its own where the lobe is shared; otherwise refitted under the
+        // reference lobe to that channel's own model (keeping a channel's ps with another
+        // channel's lobe and index can be wrong many times over).
+        let mut coef: Vec<(f64, f64)> = ch
+            .iter()
+            .map(|c| {
+                (
+                    c.model.role(crate::model::Role::Specular).unwrap_or(0.0),
+                    c.model.pd(),
+                )
+            })
+            .collect();
         if !exact {
+            let mut errors = Vec::new();
+            for (k, c) in ch.iter().enumerate() {
+                let (ps, pd, median) = refit_reflectances(&ch[reference].model, &c.model);
+                coef[k] = (ps, pd);
+                errors.push(format!(
+                    "{} {}",
+                    c.channel,
+                    crate::model::readable(100.0 * median)
+                ));
+            }
             notes.push(format!(
-                "compromise: the channels' lobes differ ({}); the lobe of channel {} (n, shape) stands for all, with each channel's own ps and pd. For the exact lobe of one channel export it with --channel, or fit the shape jointly with fit --shared",
+                "compromise: the channels' lobes differ ({}); the lobe of channel {} (n, shape) stands for all, each channel's ps and pd refitted to its own model under it; median f_r error per channel, %: {}. For the exact lobe of one channel export it with --channel, or fit the shape jointly with fit --shared",
                 differs.join(", "),
-                ch[reference].channel
+                ch[reference].channel,
+                errors.join(", ")
             ));
         }
-        let mix = |role: crate::model::Role| -> [f64; 3] {
+        let mix = |pick: fn(&(f64, f64)) -> f64| -> [f64; 3] {
             let mut out = [0.0; 3];
-            for (c, wc) in ch.iter().zip(&w) {
-                let v = c.model.role(role).unwrap_or(0.0);
+            for (c, wc) in coef.iter().zip(&w) {
+                let v = pick(c);
                 for k in 0..3 {
                     out[k] += wc[k] * v;
                 }
@@ -895,10 +918,81 @@ impl Picked {
         };
         Ok(Colour {
             model: ch[reference].model,
-            pd: mix(crate::model::Role::Diffuse),
-            ps: mix(crate::model::Role::Specular),
+            pd: mix(|c| c.1),
+            ps: mix(|c| c.0),
             notes,
             exact,
         })
     }
+}
+
+/// The (ps, pd) ≥ 0 that make `lobe`'s model closest to `target` in relative f_r
+/// (Σ ((ps S + pd D − f) / f)² over θi 10–80° in 10° steps, θo 0–85° in 5° steps, Δφ 0–180° in
+/// 15° steps, where S and D are `lobe` with (ps, pd) = (1, 0) and (0, 1): f_r is linear in both),
+/// and the median relative error that remains.
+fn refit_reflectances(lobe: &Model, target: &Model) -> (f64, f64, f64) {
+    use crate::model::{Geometry, Role};
+    let with = |ps: f64, pd: f64| {
+        let mut m = *lobe;
+        if let Some(i) = m.kind.index_of(m.dist, Role::Specular) {
+            m.p[i] = ps;
+        }
+        if let Some(i) = m.kind.index_of(m.dist, Role::Diffuse) {
+            m.p[i] = pd;
+        }
+        m
+    };
+    let (spec, diff) = (with(1.0, 0.0), with(0.0, 1.0));
+    let mut rows = Vec::new();
+    for ti in (1..=8).map(|k| f64::from(k * 10).to_radians()) {
+        for to in (0..=17).map(|k| f64::from(k * 5).to_radians()) {
+            for dp in (0..=12).map(|k| f64::from(k * 15).to_radians()) {
+                let g = Geometry::from_angles(ti, 0.0, to, std::f64::consts::PI - dp);
+                let f = target.brdf(&g);
+                if f.is_finite() && f > 0.0 {
+                    rows.push((spec.brdf(&g) / f, diff.brdf(&g) / f));
+                }
+            }
+        }
+    }
+    // Non-negative least squares in two unknowns: the unconstrained solution, else the better
+    // of the two one-variable fits.
+    let (mut ss, mut sd, mut dd, mut s1, mut d1) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for &(a, b) in &rows {
+        ss += a * a;
+        sd += a * b;
+        dd += b * b;
+        s1 += a;
+        d1 += b;
+    }
+    let cost = |ps: f64, pd: f64| -> f64 {
+        rows.iter()
+            .map(|&(a, b)| (ps * a + pd * b - 1.0).powi(2))
+            .sum()
+    };
+    let det = ss * dd - sd * sd;
+    let mut best = (0.0, 0.0);
+    if det.abs() > 1e-300 {
+        let ps = (s1 * dd - d1 * sd) / det;
+        let pd = (d1 * ss - s1 * sd) / det;
+        if ps >= 0.0 && pd >= 0.0 {
+            best = (ps, pd);
+        }
+    }
+    if best == (0.0, 0.0) {
+        let only_s = (if ss > 0.0 { (s1 / ss).max(0.0) } else { 0.0 }, 0.0);
+        let only_d = (0.0, if dd > 0.0 { (d1 / dd).max(0.0) } else { 0.0 });
+        best = if cost(only_s.0, only_s.1) <= cost(only_d.0, only_d.1) {
+            only_s
+        } else {
+            only_d
+        };
+    }
+    let mut rel: Vec<f64> = rows
+        .iter()
+        .map(|&(a, b)| (best.0 * a + best.1 * b - 1.0).abs())
+        .collect();
+    rel.sort_by(f64::total_cmp);
+    let median = rel.get(rel.len() / 2).copied().unwrap_or(f64::NAN);
+    (best.0, best.1, median)
 }
