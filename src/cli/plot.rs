@@ -5,6 +5,52 @@ use anyhow::{Result, bail};
 use clap::Subcommand;
 use std::path::{Path, PathBuf};
 
+/// The data a fit is drawn against, one channel: `--channel` if given; else, for data of several
+/// channels, the fits' channel where they share one the data has (a `y` fit takes CIE Y), and
+/// otherwise the representative one (green of RGB, CIE Y of spectral data), said on stderr.
+fn data_for_fits(load: &LoadArgs, data: &Path, fits: &[PathBuf]) -> Result<brdfit::Dataset> {
+    let ds = load.load(data)?;
+    if load.channel.is_some() || ds.channels.len() <= 1 {
+        return Ok(ds);
+    }
+    let mut held: Vec<String> = Vec::new();
+    for f in fits {
+        for r in read_fits(f)? {
+            for c in r.channel.split(',') {
+                if !held.iter().any(|h| h == c) {
+                    held.push(c.to_string());
+                }
+            }
+        }
+    }
+    let names = ds
+        .channels
+        .iter()
+        .map(|c| c.name.as_str())
+        .collect::<Vec<_>>()
+        .join(", ");
+    if let [c] = held.as_slice() {
+        let sel = if c == "y" { "cie-y" } else { c.as_str() };
+        if let Ok(one) = ds.select(&brdfit::data::ChannelSelect::parse(sel)) {
+            if !quiet() {
+                eprintln!(
+                    "note: {} has channels {names}; using channel {sel}, the fit's (choose another with --channel)",
+                    data.display()
+                );
+            }
+            return Ok(one);
+        }
+    }
+    let (one, what) = brdfit::data::representative_channel(&ds).map_err(anyhow::Error::msg)?;
+    if !quiet() {
+        eprintln!(
+            "note: {} has channels {names}; using {what} (choose another with --channel)",
+            data.display()
+        );
+    }
+    Ok(one)
+}
+
 #[derive(Subcommand, Debug)]
 pub(crate) enum PlotCommand {
     /// Polar plot of the reflected intensity in the plane of incidence, models against data.
@@ -151,7 +197,15 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                     "--tolerance {tolerance}: not an angle in [0°, 90°]\n  fix: e.g. --tolerance 2.5"
                 );
             }
-            let ds = data.as_ref().map(|d| load.load(d)).transpose()?;
+            if let Some(t) = theta_i.iter().find(|t| !(0.0..90.0).contains(*t)) {
+                bail!(
+                    "--theta-i {t}: not an angle of incidence in [0°, 90°)\n  fix: e.g. --theta-i 30,70"
+                );
+            }
+            let ds = data
+                .as_ref()
+                .map(|d| data_for_fits(&load, d, &fit))
+                .transpose()?;
             // With --fit and no --set, --model picks the fit file's model.
             let want = fit_want(&model, &fit, &load, ds.is_some(), allow_unusable);
             let plotted = ds.as_ref().map(|d| d.channels[0].name.clone());
@@ -201,7 +255,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
             load,
             output,
         } => {
-            let ds = load.load(&data)?;
+            let ds = data_for_fits(&load, &data, std::slice::from_ref(&fit))?;
             let r = pick_fit(&fit, &pick.want(None), Some(&ds.channels[0].name))?;
             let pts = plot::residual_points(
                 &ds,
@@ -223,7 +277,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
             bins,
             output,
         } => {
-            let ds = load.load(&data)?;
+            let ds = data_for_fits(&load, &data, std::slice::from_ref(&fit))?;
             let r = pick_fit(&fit, &pick.want(None), Some(&ds.channels[0].name))?;
             let (d, f) = plot::slice_grids(&ds, 0, &r.model, bins.clamp(2, 360));
             let chart = plot::SliceChart {
@@ -247,8 +301,11 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
             load,
             output,
         } => {
-            let ds = data.as_ref().map(|d| load.load(d)).transpose()?;
             let fits: Vec<PathBuf> = fit.into_iter().collect();
+            let ds = data
+                .as_ref()
+                .map(|d| data_for_fits(&load, d, &fits))
+                .transpose()?;
             let want = fit_want(&model, &fits, &load, ds.is_some(), allow_unusable);
             let (label, m) = match (fits.first(), analytic(&model, &fits)?) {
                 (Some(f), _) => {
