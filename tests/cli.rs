@@ -1254,6 +1254,20 @@ fn a_fit_of_another_channel_is_refused() {
     let f = f.to_str().unwrap();
     let o = dir.path().join("o");
     for cmd in ["residuals", "slice"] {
+        // Without --channel the data's channel is the fit's (CIE Y), said on stderr.
+        let r = brdfit(&[
+            "plot",
+            cmd,
+            "--fit",
+            f,
+            "tests/data/garnet_red.astm",
+            "-o",
+            o.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(r.status.success(), "{err}");
+        assert!(err.contains("using channel cie-y, the fit's"), "{err}");
+        // Another channel named is refused with the fix.
         expect_error(
             &[
                 "plot",
@@ -1261,6 +1275,8 @@ fn a_fit_of_another_channel_is_refused() {
                 "--fit",
                 f,
                 "tests/data/garnet_red.astm",
+                "--channel",
+                "400nm",
                 "-o",
                 o.to_str().unwrap(),
             ],
@@ -1279,6 +1295,8 @@ fn a_fit_of_another_channel_is_refused() {
             f,
             "--data",
             "tests/data/garnet_red.astm",
+            "--channel",
+            "400nm",
             "-o",
             o.to_str().unwrap(),
         ],
