@@ -128,6 +128,13 @@ fn plateau_start_does_not_strand_the_fit() {
     assert!(within(f.get("n").unwrap(), 1.8, 0.02));
 }
 
+/// A layout row for the four Torrance–Sparrow parameters (the other slots unused).
+fn slots(first: [Slot; 4]) -> [Slot; brdfit::model::MAX_PARAMS] {
+    let mut s = [Slot::Fixed(0.0); brdfit::model::MAX_PARAMS];
+    s[..4].copy_from_slice(&first);
+    s
+}
+
 /// A small two-channel problem, shared n and c3, to check the transformed chain rule.
 fn small_problem(loss: Loss) -> BrdfProblem {
     let mut rows = Vec::new();
@@ -151,13 +158,13 @@ fn small_problem(loss: Loss) -> BrdfProblem {
         rows: std::sync::Arc::new(Rows::from(rows)),
         starts,
         layout: vec![
-            [Slot::Free(0), Slot::Free(1), Slot::Free(2), Slot::Free(3)],
-            [
+            slots([Slot::Free(0), Slot::Free(1), Slot::Free(2), Slot::Free(3)]),
+            slots([
                 Slot::Free(0),
                 Slot::Free(1),
                 Slot::Free(4),
                 Slot::Fixed(0.6),
-            ],
+            ]),
         ],
         transforms: {
             let sp = ModelKind::TorranceSparrow.params(Distribution::D3);

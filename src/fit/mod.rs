@@ -272,7 +272,7 @@ impl FitResult {
         let mut m = Model {
             kind: self.model,
             dist: self.dist,
-            p: [0.0; 4],
+            p: [0.0; crate::model::MAX_PARAMS],
             fast_pow: None,
         };
         m.p[..vals.len()].copy_from_slice(&vals);
@@ -614,7 +614,7 @@ struct Layout {
     transforms: Vec<Transform>,
     names: Vec<String>,
     specs: Vec<&'static ParamSpec>,
-    slots: Vec<[Slot; 4]>,
+    slots: Vec<[Slot; crate::model::MAX_PARAMS]>,
     entries: Vec<Entry>,
 }
 
@@ -627,7 +627,7 @@ fn layout(channels: &[String], opts: &FitOptions) -> Layout {
         transforms: Vec::new(),
         names: Vec::new(),
         specs: Vec::new(),
-        slots: vec![[Slot::Fixed(0.0); 4]; channels.len()],
+        slots: vec![[Slot::Fixed(0.0); crate::model::MAX_PARAMS]; channels.len()],
         entries: Vec::new(),
     };
     let held = |name: &str| opts.fix.iter().rev().find(|(k, _)| k == name).map(|f| f.1);
@@ -1691,7 +1691,7 @@ fn global_init(full: &BrdfProblem, specs: &[&ParamSpec], opts: &FitOptions) -> V
             let slots = p.layout[c];
             let rows = p.starts[c]..p.starts[c + 1];
             // Model with ps = 1, pd = 0 gives the specular basis; pd's basis is 1/π.
-            let mut vals = [0.0; 4];
+            let mut vals = [0.0; crate::model::MAX_PARAMS];
             for j in 0..names.len() {
                 vals[j] = match slots[j] {
                     Slot::Fixed(v) => v,

@@ -3,7 +3,7 @@
 
 use super::lsq::{Normal, Problem, Robust};
 use crate::lanes::{self, LANES};
-use crate::model::{Distribution, Geometry, Model, ModelKind, ParamSpec, Scale};
+use crate::model::{Distribution, Geometry, MAX_PARAMS, Model, ModelKind, ParamSpec, Scale};
 
 /// Which residual the fit minimises (½ Σ r²).
 #[derive(
@@ -410,7 +410,7 @@ pub struct BrdfProblem {
     /// Start row of each channel (plus the total at the end).
     pub starts: Vec<usize>,
     /// Per channel, where each model parameter comes from.
-    pub layout: Vec<[Slot; 4]>,
+    pub layout: Vec<[Slot; MAX_PARAMS]>,
     /// Per free variable, its transform.
     pub transforms: Vec<Transform>,
     /// The loss.
@@ -419,7 +419,7 @@ pub struct BrdfProblem {
 
 /// Per-evaluation data: each channel's model and the chain factors dθ/du.
 pub struct Prepared {
-    chans: Vec<(Model, [(usize, f64); 4])>,
+    chans: Vec<(Model, [(usize, f64); MAX_PARAMS])>,
 }
 
 impl BrdfProblem {
@@ -433,7 +433,7 @@ impl BrdfProblem {
         self.layout
             .iter()
             .map(|slots| {
-                let mut p = [0.0; 4];
+                let mut p = [0.0; MAX_PARAMS];
                 for j in 0..self.n_model_params() {
                     p[j] = match slots[j] {
                         Slot::Free(k) => self.transforms[k].apply(x[k]).0,
@@ -538,8 +538,8 @@ impl Problem for BrdfProblem {
         let np = self.n_model_params();
         let mut chans = Vec::with_capacity(self.layout.len());
         for slots in &self.layout {
-            let mut p = [0.0; 4];
-            let mut map = [(usize::MAX, 0.0); 4];
+            let mut p = [0.0; MAX_PARAMS];
+            let mut map = [(usize::MAX, 0.0); MAX_PARAMS];
             for j in 0..np {
                 match slots[j] {
                     Slot::Free(k) => {
@@ -562,7 +562,7 @@ impl Problem for BrdfProblem {
     fn residual_grad(&self, prep: &Prepared, i: usize, row: &mut [f64]) -> f64 {
         let rw = &self.rows.get(i);
         let (model, map) = &prep.chans[self.channel_of(i)];
-        let mut grad = [0.0; 4];
+        let mut grad = [0.0; MAX_PARAMS];
         let f = model.brdf_grad(&rw.g, &mut grad);
         let (r, drdf) = match self.loss {
             Loss::Log => {
@@ -639,13 +639,19 @@ impl Problem for BrdfProblem {
                 continue;
             }
             let (model, map) = &prep.chans[c];
-            let mut g = [[0.0f64; 4]; 4];
-            let mut gr = [0.0f64; 4];
+            let mut g = [[0.0f64; MAX_PARAMS]; MAX_PARAMS];
+            let mut gr = [0.0f64; MAX_PARAMS];
             // Torrance–Sparrow with D3 and the log loss (the default fit) has a lane kernel.
             acc.cost += if ts_d3_log_applies(self.loss, model, robust) {
-                ts_d3_log(&self.rows, lo..hi, model.p, &mut g, &mut gr)
+                let (mut g4, mut gr4) = ([[0.0f64; 4]; 4], [0.0f64; 4]);
+                let cost = ts_d3_log(&self.rows, lo..hi, p4(model), &mut g4, &mut gr4);
+                for a in 0..4 {
+                    gr[a] = gr4[a];
+                    g[a][..4].copy_from_slice(&g4[a]);
+                }
+                cost
             } else {
-                kernel_rows(
+                kernel_rows_any(
                     &self.rows,
                     lo..hi,
                     self.loss,
@@ -683,7 +689,7 @@ impl Problem for BrdfProblem {
             }
             let model = &prep.chans[c].0;
             if ts_d3_log_applies(self.loss, model, robust) {
-                s += ts_d3_log_cost(&self.rows, lo..hi, model.p);
+                s += ts_d3_log_cost(&self.rows, lo..hi, p4(model));
                 continue;
             }
             for i in lo..hi {
@@ -703,7 +709,7 @@ impl Problem for BrdfProblem {
 /// f_r of `model` at rows `range` (the lane form of [`TsD3`] for Torrance–Sparrow with D3).
 pub fn brdf_values(model: &Model, rows: &Rows, range: std::ops::Range<usize>) -> Vec<f64> {
     if model.kind == ModelKind::TorranceSparrow && model.dist == Distribution::D3 {
-        ts_d3_values(model.p, rows, range)
+        ts_d3_values(p4(model), rows, range)
     } else {
         range.map(|i| model.brdf(&rows.get(i).g)).collect()
     }
@@ -726,21 +732,48 @@ fn ts_d3_log_applies(loss: Loss, model: &Model, robust: Robust) -> bool {
         && model.dist == Distribution::D3
 }
 
-/// The hot loop, row by row through [`Model::brdf_grad`] (every model, loss and robust weight):
-/// residuals of one channel's rows `range` with the model's parameter gradient, accumulated
-/// into the model-space normal equations `g` (upper triangle) and `gr`; returns Σ ρ(r). Free of
-/// allocation.
-fn kernel_rows(
+/// The first four parameters of a model (Torrance–Sparrow D3's n, c3, ps, pd) for its lane kernel.
+fn p4(model: &Model) -> [f64; 4] {
+    [model.p[0], model.p[1], model.p[2], model.p[3]]
+}
+
+/// [`kernel_rows`] for the model's number of parameters (a constant inside, so its loops unroll).
+fn kernel_rows_any(
     rows: &Rows,
     range: std::ops::Range<usize>,
     loss: Loss,
     model: &Model,
     robust: Robust,
-    g: &mut [[f64; 4]; 4],
-    gr: &mut [f64; 4],
+    g: &mut [[f64; MAX_PARAMS]; MAX_PARAMS],
+    gr: &mut [f64; MAX_PARAMS],
+) -> f64 {
+    match model.specs().len() {
+        1 => kernel_rows::<1>(rows, range, loss, model, robust, g, gr),
+        2 => kernel_rows::<2>(rows, range, loss, model, robust, g, gr),
+        3 => kernel_rows::<3>(rows, range, loss, model, robust, g, gr),
+        4 => kernel_rows::<4>(rows, range, loss, model, robust, g, gr),
+        5 => kernel_rows::<5>(rows, range, loss, model, robust, g, gr),
+        6 => kernel_rows::<6>(rows, range, loss, model, robust, g, gr),
+        7 => kernel_rows::<7>(rows, range, loss, model, robust, g, gr),
+        _ => kernel_rows::<MAX_PARAMS>(rows, range, loss, model, robust, g, gr),
+    }
+}
+
+/// The hot loop, row by row through [`Model::brdf_grad`] (every model, loss and robust weight):
+/// residuals of one channel's rows `range` with the gradient of the model's `N` parameters,
+/// accumulated into the model-space normal equations `g` (upper triangle) and `gr`; returns
+/// Σ ρ(r). Free of allocation.
+fn kernel_rows<const N: usize>(
+    rows: &Rows,
+    range: std::ops::Range<usize>,
+    loss: Loss,
+    model: &Model,
+    robust: Robust,
+    g: &mut [[f64; MAX_PARAMS]; MAX_PARAMS],
+    gr: &mut [f64; MAX_PARAMS],
 ) -> f64 {
     let mut cost = 0.0;
-    let mut grad = [0.0; 4];
+    let mut grad = [0.0; MAX_PARAMS];
     for i in range {
         let rw = rows.get(i);
         let f = model.brdf_grad(&rw.g, &mut grad);
@@ -753,16 +786,16 @@ fn kernel_rows(
         };
         let r = rw.sw * r;
         let s = rw.sw * drdf;
-        let j = [s * grad[0], s * grad[1], s * grad[2], s * grad[3]];
+        let j: [f64; N] = std::array::from_fn(|a| s * grad[a]);
         let (rho, w) = match robust {
             Robust::None => (0.5 * r * r, 1.0),
             _ => (robust.rho(r), robust.weight(r)),
         };
         cost += rho;
-        for a in 0..4 {
+        for a in 0..N {
             let wa = w * j[a];
             gr[a] += wa * r;
-            for b in a..4 {
+            for b in a..N {
                 g[a][b] += wa * j[b];
             }
         }
@@ -1007,10 +1040,10 @@ mod tests {
                 ];
                 let model = Model::new(ModelKind::TorranceSparrow, Distribution::D3, &p).unwrap();
                 let (mut g1, mut r1) = ([[0.0; 4]; 4], [0.0; 4]);
-                let (mut g2, mut r2) = ([[0.0; 4]; 4], [0.0; 4]);
+                let (mut g2, mut r2) = ([[0.0; MAX_PARAMS]; MAX_PARAMS], [0.0; MAX_PARAMS]);
                 let c1 = ts_d3_log(&rows, 0..m, p, &mut g1, &mut r1);
                 assert_eq!(c1, ts_d3_log_cost(&rows, 0..m, p));
-                let c2 = kernel_rows(
+                let c2 = kernel_rows_any(
                     &rows,
                     0..m,
                     Loss::Log,

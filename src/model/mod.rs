@@ -574,6 +574,9 @@ pub enum ModelError {
     },
 }
 
+/// The most parameters a model may declare (the size of [`Model::p`]).
+pub const MAX_PARAMS: usize = 8;
+
 /// A reflection model with its parameter values: a small value type evaluated per sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Model {
@@ -582,7 +585,7 @@ pub struct Model {
     /// Facet distribution (used by torrance-sparrow only).
     pub dist: Distribution,
     /// Parameters in the order of [`ModelKind::param_names`]; unused trailing slots are 0.
-    pub p: [f64; 4],
+    pub p: [f64; MAX_PARAMS],
     /// Phong only: use the fast power approximation with γ = 2^k.
     pub fast_pow: Option<u32>,
 }
@@ -590,7 +593,7 @@ pub struct Model {
 impl Model {
     /// Model from parameter values in [`ModelKind::param_names`] order, checked against bounds.
     pub fn new(kind: ModelKind, dist: Distribution, params: &[f64]) -> Result<Self, ModelError> {
-        let mut p = [0.0; 4];
+        let mut p = [0.0; MAX_PARAMS];
         for (i, spec) in kind.params(dist).iter().enumerate() {
             let Some(&v) = params.get(i) else {
                 return Err(ModelError::Missing {
@@ -714,7 +717,7 @@ impl Model {
     /// The BRDF f_r = i / (π N·L) in 1/sr.
     #[inline]
     pub fn brdf(&self, g: &Geometry) -> f64 {
-        let mut scratch = [0.0; 4];
+        let mut scratch = [0.0; MAX_PARAMS];
         self.brdf_grad(g, &mut scratch)
     }
 

@@ -302,7 +302,16 @@ pub fn equal_beta_phong(ts: &Model) -> Model {
     Model {
         kind: super::ModelKind::BlinnPhong,
         dist: Distribution::D3,
-        p: [c1, ts.p[2] * f0_from_n(ts.p[0]), ts.p[3], 0.0],
+        p: [
+            c1,
+            ts.p[2] * f0_from_n(ts.p[0]),
+            ts.p[3],
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+        ],
         fast_pow: None,
     }
 }
