@@ -30,7 +30,7 @@ pub fn create_dir(dir: &Path) -> io::Result<()> {
         top = p;
     }
     let top = top.to_path_buf();
-    std::fs::create_dir_all(dir)?;
+    std::fs::create_dir_all(dir).map_err(|e| explain(e, dir))?;
     if let Ok(mut c) = CREATED.lock() {
         c.push(top);
     }
@@ -106,13 +106,24 @@ where
     if let Some(dir) = path.parent() {
         create_dir(dir)?;
     }
+    if path.is_dir() {
+        return Err(io::Error::new(
+            io::ErrorKind::IsADirectory,
+            format!(
+                "`{}` is a folder, not a file\n  fix: give a file name (e.g. `{}`)",
+                path.display(),
+                path.join("out").display()
+            ),
+        ));
+    }
     remove_stale_temps(path);
     let tmp = temp_name(path);
     let mut guard = TempGuard {
         path: &tmp,
         renamed: false,
     };
-    let file = std::fs::File::create(&tmp)?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let file = std::fs::File::create(&tmp).map_err(|e| explain(e, dir))?;
     let mut w = BufWriter::with_capacity(1 << 16, file);
     write(&mut w)?;
     let file = w.into_inner().map_err(|e| e.into_error())?;
@@ -121,6 +132,45 @@ where
     std::fs::rename(&tmp, path)?;
     guard.renamed = true;
     Ok(())
+}
+
+/// An error creating the output folder `dir` or a file in it, with what is in the way and the
+/// fix: a file where a folder must be, or a folder the user may not write to.
+fn explain(e: io::Error, dir: &Path) -> io::Error {
+    let dir = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
+    // The deepest existing ancestor of `dir`: a file there blocks the folder.
+    let mut blocker = Some(dir);
+    while let Some(b) = blocker {
+        if b.exists() {
+            break;
+        }
+        blocker = b.parent().filter(|p| !p.as_os_str().is_empty());
+    }
+    let msg = match blocker {
+        Some(b) if b == dir && b.exists() && !b.is_dir() => format!(
+            "`{}` is a file, not a folder\n  fix: choose another output path, or move `{}` away",
+            b.display(),
+            b.display()
+        ),
+        Some(b) if b.exists() && !b.is_dir() => format!(
+            "`{}` is a file, so the folder `{}` cannot be made\n  fix: choose another output \
+             path, or move `{}` away",
+            b.display(),
+            dir.display(),
+            b.display()
+        ),
+        _ if e.kind() == io::ErrorKind::PermissionDenied => format!(
+            "no permission to write in `{}` ({e})\n  fix: choose an output path in a folder you \
+             can write to",
+            dir.display()
+        ),
+        _ => format!("cannot write in `{}`: {e}", dir.display()),
+    };
+    io::Error::new(e.kind(), msg)
 }
 
 /// [`write_atomic`] for a byte buffer.
@@ -159,6 +209,25 @@ mod tests {
         });
         assert!(r.is_err());
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+
+    #[test]
+    fn a_file_in_the_way_is_named_with_the_fix() {
+        let dir = tempfile::tempdir().unwrap();
+        let blocker = dir.path().join("afile");
+        std::fs::write(&blocker, b"x").unwrap();
+        let e = write_bytes_atomic(&blocker.join("sub/out.json"), b"ok").unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.contains("afile` is a file"), "{msg}");
+        assert!(msg.contains("fix:"), "{msg}");
+        let e = write_bytes_atomic(dir.path(), b"ok")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("is a folder, not a file") && e.contains("fix:"),
+            "{e}"
+        );
+        assert_eq!(std::fs::read(&blocker).unwrap(), b"x");
     }
 
     #[test]

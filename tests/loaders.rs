@@ -350,3 +350,23 @@ fn inputs_are_never_modified() {
         .collect();
     assert!(before == after);
 }
+
+/// Grid angles stored in radians are written as the degrees they came from (`30`, `255`), not
+/// as the binary rounding of the radian value (`29.999999999999996`).
+#[test]
+fn csv_writes_grid_angles_as_their_degrees() {
+    let mut ds = Dataset::new(Quantity::Brdf, vec![("".into(), None)]);
+    for (ti, po) in [(30.0f64, 255.0f64), (70.0, 15.0), (10.0, 345.0)] {
+        ds.push(
+            [ti.to_radians(), 0.0, ti.to_radians(), po.to_radians()],
+            &[0.5],
+        );
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("grid.csv");
+    data::write_csv(&ds, &out).unwrap();
+    let text = std::fs::read_to_string(&out).unwrap();
+    for line in ["30,0,30,255,0.5", "70,0,70,15,0.5", "10,0,10,345,0.5"] {
+        assert!(text.lines().any(|l| l == line), "{line} not in\n{text}");
+    }
+}

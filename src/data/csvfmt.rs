@@ -357,6 +357,13 @@ pub fn write_csv(ds: &Dataset, path: &Path) -> Result<(), DataError> {
     write_atomic(path, |w| write_csv_to(ds, w)).map_err(|e| io_error(path, &e))
 }
 
+/// An angle in degrees as written: rounded to 1e-11° so that a grid angle stored in radians
+/// prints as `30`, not `29.999999999999996` (far below any goniometer's resolution).
+fn degrees(rad: f64) -> f64 {
+    let d = (rad.to_degrees() * 1e11).round() / 1e11;
+    if d == 0.0 { 0.0 } else { d }
+}
+
 /// Write a dataset as brdfit CSV to any writer.
 pub fn write_csv_to(ds: &Dataset, w: &mut dyn Write) -> std::io::Result<()> {
     if !ds.meta.source.is_empty() {
@@ -387,10 +394,10 @@ pub fn write_csv_to(ds: &Dataset, w: &mut dyn Write) -> std::io::Result<()> {
         write!(
             w,
             "{},{},{},{}",
-            a[0].to_degrees(),
-            a[1].to_degrees(),
-            a[2].to_degrees(),
-            a[3].to_degrees()
+            degrees(a[0]),
+            degrees(a[1]),
+            degrees(a[2]),
+            degrees(a[3])
         )?;
         for c in &ds.channels {
             let v = c.values[k];
