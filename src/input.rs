@@ -209,15 +209,26 @@ pub fn read_to_string_limited(path: &Path, kind: Input) -> Result<String, DataEr
         bytes.drain(..3);
     }
     String::from_utf8(bytes).map_err(|e| {
-        DataError::new(
-            path,
-            None,
-            format!(
-                "not UTF-8 text (invalid byte at offset {})",
-                e.utf8_error().valid_up_to()
-            ),
-            format!("save the {} as UTF-8 text", kind.what()),
-        )
+        let message = format!(
+            "not UTF-8 text (invalid byte at offset {})",
+            e.utf8_error().valid_up_to()
+        );
+        if kind == Input::Data {
+            DataError::new(
+                path,
+                None,
+                message,
+                "save the file as UTF-8 text, or choose the format merl for a MERL binary",
+            )
+            .with_setting(crate::setting::Setting::Format)
+        } else {
+            DataError::new(
+                path,
+                None,
+                message,
+                format!("save the {} as UTF-8 text", kind.what()),
+            )
+        }
     })
 }
 

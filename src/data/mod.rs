@@ -818,23 +818,7 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Dataset, DataError> {
 
 /// Read a whole text file, accepting a UTF-8 BOM; invalid UTF-8 is an error with a fix.
 pub(crate) fn read_text(path: &Path) -> Result<String, DataError> {
-    let bytes = crate::input::read_limited(path, crate::input::Input::Data)?;
-    let bytes = bytes
-        .strip_prefix(b"\xEF\xBB\xBF")
-        .unwrap_or(&bytes)
-        .to_vec();
-    String::from_utf8(bytes).map_err(|e| {
-        DataError::new(
-            path,
-            None,
-            format!(
-                "not UTF-8 text (invalid byte at offset {})",
-                e.utf8_error().valid_up_to()
-            ),
-            "save the file as UTF-8 text, or choose the format merl for a MERL binary",
-        )
-        .with_setting(crate::setting::Setting::Format)
-    })
+    crate::input::read_to_string_limited(path, crate::input::Input::Data)
 }
 
 /// Summary statistics for `brdfit info`.
