@@ -1218,6 +1218,12 @@ fn consumers_use_the_recommended_model_or_the_one_asked() {
         dir.path().join("f7").to_str().unwrap(),
     ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    // ... and says so, since the file holds other models.
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        err.contains("using the file's torrance-sparrow fit (it also holds lambert, ggx-smith)"),
+        "{err}"
+    );
     // plot lobe: --model without --set picks from the file.
     let r = brdfit(&[
         "plot",
@@ -1399,4 +1405,60 @@ fn fit_command_polish() {
             "{row:?}"
         );
     }
+}
+
+/// A file with several torrance-sparrow distributions: `--model torrance-sparrow` takes d3 and
+/// says which it took and how to choose another; `--distribution d1` takes d1, silently.
+#[test]
+fn a_distribution_taken_for_the_user_is_said() {
+    let dir = tempfile::tempdir().unwrap();
+    let d1 = fit_object(
+        "torrance-sparrow",
+        "d1",
+        "brdf",
+        r#"{"n": 1.8, "c1": 20, "ps": 0.667, "pd": 0.333}"#,
+        "",
+    );
+    let d3 = fit_object("torrance-sparrow", "d3", "brdf", MGO, "");
+    let f = dir.path().join("ts.json");
+    std::fs::write(&f, format!(r#"{{"fits": [{d1}, {d3}]}}"#)).unwrap();
+    let f = f.to_str().unwrap();
+    let out = dir.path().join("o");
+    let out = out.to_str().unwrap();
+    let r = brdfit(&[
+        "render",
+        "fig7",
+        "--mgo",
+        f,
+        "--model",
+        "torrance-sparrow",
+        "--res",
+        "8",
+        "-o",
+        out,
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{err}");
+    assert!(
+        err.contains("using torrance-sparrow (d3) of the file's torrance-sparrow fits (d1, d3)")
+            && err.contains("--distribution"),
+        "{err}"
+    );
+    let r = brdfit(&[
+        "render",
+        "fig7",
+        "--mgo",
+        f,
+        "--model",
+        "torrance-sparrow",
+        "--distribution",
+        "d1",
+        "--res",
+        "8",
+        "-o",
+        out,
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{err}");
+    assert!(!err.contains("using torrance-sparrow"), "{err}");
 }

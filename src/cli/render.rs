@@ -24,6 +24,25 @@ pub(crate) fn ts_model_from(
             }
             let mut want = pick.want(channel);
             want.model = Some(ModelKind::TorranceSparrow);
+            if pick.model.is_none() && !quiet() {
+                let others: Vec<String> = read_fits(p)?
+                    .iter()
+                    .filter(|f| f.model != ModelKind::TorranceSparrow)
+                    .map(|f| f.label())
+                    .fold(Vec::new(), |mut v, l| {
+                        if !v.contains(&l) {
+                            v.push(l);
+                        }
+                        v
+                    });
+                if !others.is_empty() {
+                    eprintln!(
+                        "note: {}: fig7 draws Blinn's Torrance–Sparrow objects: using the file's torrance-sparrow fit (it also holds {})",
+                        p.display(),
+                        others.join(", ")
+                    );
+                }
+            }
             let r = pick_fit(p, &want, None).map_err(|e| {
                 anyhow::anyhow!("{e}\n  (fig7 needs a torrance-sparrow fit: brdfit fit DATA --model torrance-sparrow --json OUT)")
             })?;

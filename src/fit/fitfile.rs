@@ -508,7 +508,21 @@ pub fn pick(fits: &[FitResult], want: &Want) -> Result<Picked, FitFileError> {
                 Some(*d) == want.dist || (want.dist.is_none() && *d == Distribution::D3)
             });
             match (exact, of_kind.as_slice()) {
-                (Some(m), _) => **m,
+                (Some(m), _) => {
+                    if want.dist.is_none() && of_kind.len() > 1 {
+                        notes.push(format!(
+                            "using {} of the file's {} fits ({}); choose another with --distribution",
+                            kind.label(m.1),
+                            kind,
+                            of_kind
+                                .iter()
+                                .map(|(_, d)| d.name())
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ));
+                    }
+                    **m
+                }
                 (None, [only]) if want.dist.is_none() => **only,
                 _ => {
                     let asked = match want.dist {
