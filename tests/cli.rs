@@ -292,6 +292,18 @@ fn usage_errors_exit_2() {
     }
     assert_eq!(brdfit(&["info"]).status.code(), Some(2));
     assert_eq!(brdfit(&["frobnicate"]).status.code(), Some(2));
+    // A count out of its stated range is refused with the range (exit 2), never clamped.
+    for (args, range) in [
+        (&["report", "--render-res", "5000"][..], "16..=4096"),
+        (&["report", "--stability-starts", "0"][..], "1..=100"),
+        (&["fit", "data/blinn-mgo.csv", "--jobs", "0"][..], "1..=64"),
+        (&["study", "render", "--res", "4"][..], "8..=2048"),
+    ] {
+        let out = brdfit(args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(range), "{args:?}: {err}");
+    }
     assert_eq!(brdfit(&["--version"]).status.code(), Some(0));
     expect_error(
         &[
@@ -1461,4 +1473,32 @@ fn a_distribution_taken_for_the_user_is_said() {
     let err = String::from_utf8_lossy(&r.stderr);
     assert!(r.status.success(), "{err}");
     assert!(!err.contains("using torrance-sparrow"), "{err}");
+    // A scene whose material takes the file: the note names the scene and the material, and
+    // --quiet keeps it off stderr.
+    let scene = dir.path().join("s.toml");
+    std::fs::write(
+        &scene,
+        "[camera]\neye = [0.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 30.0\nwidth = 8\nheight = 8\n\
+         [[lights]]\nkind = \"directional\"\ndirection = [0.0, 0.0, 1.0]\nintensity = 3.0\n\
+         [materials.m]\nfit = \"ts.json\"\nfit_model = \"torrance-sparrow\"\n\
+         [[objects]]\nkind = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"m\"\n",
+    )
+    .unwrap();
+    let img = dir.path().join("s.png");
+    let args = [
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        img.to_str().unwrap(),
+    ];
+    let r = brdfit(&args);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{err}");
+    assert!(
+        err.contains("s.toml: material m: ") && err.contains("using torrance-sparrow (d3)"),
+        "{err}"
+    );
+    let r = brdfit(&[&args[..], &["--quiet"]].concat());
+    assert!(r.status.success());
+    assert!(!String::from_utf8_lossy(&r.stderr).contains("note"));
 }

@@ -40,9 +40,9 @@ pub(crate) struct FitArgs {
     /// The data file(s); several files are fitted in parallel (see --jobs, --summary).
     #[arg(required = true)]
     pub(crate) files: Vec<PathBuf>,
-    /// Files fitted at once in a batch.
-    #[arg(long, short = 'j', default_value_t = 2)]
-    pub(crate) jobs: usize,
+    /// Files fitted at once in a batch (1–64).
+    #[arg(long, short = 'j', default_value_t = 2, value_parser = clap::value_parser!(u16).range(1..=64))]
+    pub(crate) jobs: u16,
     /// Batch summary: one row per file, channel and model (CSV, or JSON when FILE ends in .json).
     #[arg(long, value_name = "FILE")]
     pub(crate) summary: Option<PathBuf>,

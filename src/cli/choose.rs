@@ -96,7 +96,7 @@ pub(crate) fn run_choose(a: ChooseArgs) -> Result<()> {
         choose::fig7_cases(a.res)
     } else {
         let path = Path::new(&a.scene);
-        let scene = brdfit::render::scene::load_scene(path)?;
+        let scene = load_scene(path)?;
         brdfit::render::check_image_size(
             scene.camera.width,
             scene.camera.height,

@@ -50,7 +50,7 @@ pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
         refuse_input(out, &inputs)?;
     }
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.jobs.clamp(1, 64))
+        .num_threads(a.jobs as usize)
         .build()
         .map_err(|e| anyhow!("cannot start {} jobs: {e}", a.jobs))?;
     let results: Vec<Result<(String, Vec<brdfit::fit::FitResult>)>> = if a.files.len() == 1 {

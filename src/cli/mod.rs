@@ -126,6 +126,17 @@ pub(crate) fn quiet() -> bool {
     QUIET.load(std::sync::atomic::Ordering::Relaxed)
 }
 
+/// Read a scene file and say on stderr (unless --quiet) what was chosen for the user in it.
+pub(crate) fn load_scene(path: &std::path::Path) -> anyhow::Result<brdfit::render::Scene> {
+    let (scene, notes) = brdfit::render::scene::load_scene_noted(path)?;
+    if !quiet() {
+        for n in notes {
+            eprintln!("note: {}: {n}", path.display());
+        }
+    }
+    Ok(scene)
+}
+
 #[derive(Subcommand, Debug)]
 pub(crate) enum Command {
     /// One command from measurements to a report: fits, model comparison, plots, renders and
@@ -140,11 +151,11 @@ pub(crate) enum Command {
         /// Output directory (regenerated).
         #[arg(short, long, default_value = "reports")]
         output: PathBuf,
-        /// Random starts per configuration in each stability study.
-        #[arg(long, default_value_t = 16)]
-        stability_starts: usize,
-        /// Resolution of the material renders.
-        #[arg(long, default_value_t = 256)]
+        /// Random starts per configuration in each stability study (1–100).
+        #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u16).range(1..=100))]
+        stability_starts: u16,
+        /// Resolution of the material renders (16–4096).
+        #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(16..=4096))]
         render_res: u32,
     },
     /// Which model a scene needs: render the measurement itself and each model fitted where the

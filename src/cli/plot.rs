@@ -129,9 +129,9 @@ pub(crate) enum PlotCommand {
         pick: PickArgs,
         #[command(flatten)]
         load: LoadArgs,
-        /// Bins per axis.
-        #[arg(long, default_value_t = 45)]
-        bins: usize,
+        /// Bins per axis (2–360).
+        #[arg(long, default_value_t = 45, value_parser = clap::value_parser!(u16).range(2..=360))]
+        bins: u16,
         /// Output base name.
         #[arg(short, long)]
         output: PathBuf,
@@ -279,7 +279,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
         } => {
             let ds = data_for_fits(&load, &data, std::slice::from_ref(&fit))?;
             let r = pick_fit(&fit, &pick.want(None), Some(&ds.channels[0].name))?;
-            let (d, f) = plot::slice_grids(&ds, 0, &r.model, bins.clamp(2, 360));
+            let (d, f) = plot::slice_grids(&ds, 0, &r.model, bins as usize);
             let chart = plot::SliceChart {
                 title: format!(
                     "θh × θd slice: {} against {}, channel {}",
@@ -287,7 +287,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                     r.fit.label(),
                     ds.channels[0].name
                 ),
-                n: bins.clamp(2, 360),
+                n: bins as usize,
                 images: [d, f],
             };
             save_chart(&chart, &base(&output))?;

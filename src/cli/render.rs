@@ -97,7 +97,7 @@ pub(crate) fn run_render(
         }
         return Ok(());
     }
-    let s = render::scene::load_scene(Path::new(scene))?;
+    let s = load_scene(Path::new(scene))?;
     render::check_image_size(s.camera.width, s.camera.height, allow_large)
         .map_err(|e| anyhow!("{scene}: camera: {e}"))?;
     let bar = if quiet {

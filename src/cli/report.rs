@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 pub(crate) fn run_report(
     files: Vec<PathBuf>,
     output: &Path,
-    stability_starts: usize,
+    stability_starts: u16,
     render_res: u32,
 ) -> Result<()> {
     let quiet = quiet();
@@ -27,8 +27,8 @@ pub(crate) fn run_report(
         &files,
         &brdfit::report::ReportOptions {
             out: output.to_path_buf(),
-            stability_starts: stability_starts.clamp(1, 100),
-            render_res: render_res.clamp(16, 4096),
+            stability_starts: stability_starts as usize,
+            render_res,
             verbose: !quiet,
         },
     )?;

@@ -36,8 +36,8 @@ pub(crate) enum StudyCommand {
     /// pixel, uniform against adaptive anti-aliasing, on the Figure 7 scenes.
     #[command(after_help = "Example:\n  brdfit study render -o reports/study")]
     Render {
-        /// Resolution of the study images.
-        #[arg(long, default_value_t = 192)]
+        /// Resolution of the study images (8–2048).
+        #[arg(long, default_value_t = 192, value_parser = clap::value_parser!(u32).range(8..=2048))]
         res: u32,
         /// Study this scene file (at its own resolution) instead of the Figure 7 scenes.
         #[arg(long)]
@@ -56,9 +56,9 @@ pub(crate) enum StudyCommand {
         data: PathBuf,
         #[command(flatten)]
         load: LoadArgs,
-        /// Random starts per method and configuration.
-        #[arg(long, default_value_t = 8)]
-        starts: usize,
+        /// Random starts per method and configuration (1–1000).
+        #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u16).range(1..=1000))]
+        starts: u16,
         /// Seed of the synthetic data and the starts.
         #[arg(long, default_value_t = 1)]
         seed: u64,
@@ -130,8 +130,8 @@ pub(crate) fn run_study(cmd: StudyCommand) -> Result<()> {
         }
         StudyCommand::Render { res, scene, output } => {
             let rows = match &scene {
-                Some(p) => study::render_study_scenes(&[brdfit::render::scene::load_scene(p)?]),
-                None => study::render_study(res.clamp(8, 2048)),
+                Some(p) => study::render_study_scenes(&[load_scene(p)?]),
+                None => study::render_study(res),
             };
             let what = match &scene {
                 Some(p) => p.display().to_string(),
@@ -168,13 +168,10 @@ pub(crate) fn run_study(cmd: StudyCommand) -> Result<()> {
                 }
             };
             let bar = progress_bar(16, "stability configurations");
-            let rows = study::stability_with_progress(
-                &reference,
-                starts.clamp(1, 1000),
-                1500,
-                seed,
-                &|| bar.inc(1),
-            );
+            let rows =
+                study::stability_with_progress(&reference, starts as usize, 1500, seed, &|| {
+                    bar.inc(1)
+                });
             bar.finish_and_clear();
             let title = format!("Stability from {starts} random starts around {reference}");
             save_chart(

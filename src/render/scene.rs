@@ -304,6 +304,12 @@ fn not_for(owner: &str, keys: &[(&str, bool)], hint: &str) -> Result<()> {
 /// the material named by the top-level `test_object`, else the first in the file; the others
 /// follow in file order.
 pub fn parse_scene(text: &str, dir: &Path) -> Result<Scene> {
+    parse_scene_noted(text, dir, &mut Vec::new())
+}
+
+/// [`parse_scene`], adding to `notes` what was chosen for the user (which fit of a fit file a
+/// material uses), one sentence each, for the caller to show.
+pub fn parse_scene_noted(text: &str, dir: &Path, notes: &mut Vec<String>) -> Result<Scene> {
     let f: SceneFile = toml::from_str(text).map_err(|e| {
         let fix = match (e.message(), e.span()) {
             ("duplicate key", Some(span)) => format!(
@@ -356,7 +362,7 @@ pub fn parse_scene(text: &str, dir: &Path) -> Result<Scene> {
     let mut names = Vec::new();
     let mut materials = Vec::new();
     for (name, m) in specs {
-        materials.push(material(name, m, dir)?);
+        materials.push(material(name, m, dir, notes)?);
         names.push(name.clone());
     }
     let mut objects = Vec::new();
@@ -588,7 +594,7 @@ fn names_of(m: &[(String, MaterialSpec)]) -> String {
         .join(", ")
 }
 
-fn material(name: &str, m: &MaterialSpec, dir: &Path) -> Result<Material> {
+fn material(name: &str, m: &MaterialSpec, dir: &Path, notes: &mut Vec<String>) -> Result<Material> {
     let key = |k: &str| format!("`materials.{name}.{k}`");
     // A colour fit: the lobe with ps = pd = 1, its channels' pd and ps as colours.
     let mut fit_colour = (DVec3::ONE, DVec3::ONE);
@@ -603,7 +609,7 @@ fn material(name: &str, m: &MaterialSpec, dir: &Path) -> Result<Material> {
                 "the fit file gives the parameters (`distribution` and `fit_model` pick one fit of several)",
             )?;
             let p = dir.join(fit);
-            let (model, diffuse, specular) = fit_material(name, m, &p)?;
+            let (model, diffuse, specular) = fit_material(name, m, &p, notes)?;
             fit_colour = (diffuse, specular);
             model
         }
@@ -690,7 +696,12 @@ fn material(name: &str, m: &MaterialSpec, dir: &Path) -> Result<Material> {
 /// `fit_channel` (see [`crate::fit::pick`]); several channels become colour (the shared lobe
 /// with ps = pd = 1, and their pd and ps as diffuse and specular colours). What was picked
 /// for the user and any colour compromise are said on stderr.
-fn fit_material(name: &str, m: &MaterialSpec, p: &Path) -> Result<(Model, DVec3, DVec3)> {
+fn fit_material(
+    name: &str,
+    m: &MaterialSpec,
+    p: &Path,
+    notes: &mut Vec<String>,
+) -> Result<(Model, DVec3, DVec3)> {
     use crate::fit::{Want, pick, read_fit_file};
     let text = crate::input::read_to_string_limited(p, crate::input::Input::FitJson)
         .with_context(|| format!("material {name}: cannot read fit {}", p.display()))?;
@@ -722,12 +733,12 @@ fn fit_material(name: &str, m: &MaterialSpec, p: &Path) -> Result<(Model, DVec3,
         .colour()
         .map_err(|e| at(&e.to_string().replace("with --channel", "with fit_channel")))?;
     for n in picked.notes.iter().chain(&colour.notes) {
-        eprintln!(
-            "note: material {name}: {}: {}",
+        notes.push(format!(
+            "material {name}: {}: {}",
             p.display(),
             n.replace("--model", "fit_model")
                 .replace("--channel", "fit_channel")
-        );
+        ));
     }
     if colour.is_grey() {
         return Ok((colour.model, DVec3::ONE, DVec3::ONE));
@@ -771,9 +782,17 @@ pub fn plane_axes(n: DVec3) -> (DVec3, DVec3) {
 
 /// Read a scene file.
 pub fn load_scene(path: &Path) -> Result<Scene> {
+    load_scene_noted(path).map(|(s, _)| s)
+}
+
+/// [`load_scene`] with the notes of [`parse_scene_noted`] (what was chosen for the user).
+pub fn load_scene_noted(path: &Path) -> Result<(Scene, Vec<String>)> {
     let text = crate::input::read_to_string_limited(path, crate::input::Input::Scene)?;
     let dir = path.parent().unwrap_or(Path::new("."));
-    parse_scene(&text, dir).with_context(|| path.display().to_string())
+    let mut notes = Vec::new();
+    let s =
+        parse_scene_noted(&text, dir, &mut notes).with_context(|| path.display().to_string())?;
+    Ok((s, notes))
 }
 
 /// Read the `v` and `f` lines of an OBJ file (polygons fanned into triangles; negative
