@@ -908,3 +908,28 @@ material = "m"
         "{e}"
     );
 }
+
+/// A mesh of many copies of one triangle keeps it once (no BVH split separates coincident
+/// triangles, so every ray would visit them all) and still renders it; the other winding is
+/// another triangle.
+#[test]
+fn repeated_triangles_are_kept_once() {
+    use brdfit::render::{Mesh, Ray};
+    use glam::DVec3;
+    let a = DVec3::new(0.0, 0.0, 0.0);
+    let b = DVec3::new(1.0, 0.0, 0.0);
+    let c = DVec3::new(0.0, 1.0, 0.0);
+    let mut tris = vec![[a, b, c]; 5000];
+    tris.extend(vec![[b, c, a]; 5000]);
+    tris.push([a, c, b]);
+    let m = Mesh::new(tris);
+    assert_eq!(m.len(), 2);
+    let r = Ray {
+        o: DVec3::new(0.25, 0.25, 1.0),
+        d: DVec3::new(0.0, 0.0, -1.0),
+    };
+    let (t, _) = m
+        .intersect(&r, f64::INFINITY)
+        .expect("the ray hits the triangle");
+    assert!((t - 1.0).abs() < 1e-12);
+}

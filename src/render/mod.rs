@@ -58,11 +58,15 @@ struct Node {
 
 impl Mesh {
     /// Build the BVH (median split on the longest axis, leaves of ≤ 4 triangles). Degenerate
-    /// triangles (zero area) are dropped.
+    /// triangles (zero area) are dropped, and so are repeats of a triangle (the same vertices
+    /// in the same winding): no split separates coincident triangles, so a mesh of many copies
+    /// would make every ray visit them all.
     pub fn new(tris: Vec<[DVec3; 3]>) -> Mesh {
+        let mut seen = std::collections::HashSet::new();
         let tris: Vec<[DVec3; 3]> = tris
             .into_iter()
             .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]).length_squared() > 1e-24)
+            .filter(|t| seen.insert(winding_key(t)))
             .collect();
         let mut m = Mesh {
             order: (0..tris.len() as u32).collect(),
@@ -79,6 +83,16 @@ impl Mesh {
             m.build(0, 0, m.tris.len());
         }
         m
+    }
+
+    /// Number of triangles kept (after dropping degenerate and repeated ones).
+    pub fn len(&self) -> usize {
+        self.tris.len()
+    }
+
+    /// True when no triangle was kept.
+    pub fn is_empty(&self) -> bool {
+        self.tris.is_empty()
     }
 
     fn bounds(&self, a: usize, b: usize) -> (DVec3, DVec3) {
@@ -189,6 +203,19 @@ impl Mesh {
         }
         best
     }
+}
+
+/// A triangle's vertices as bits, rotated so the smallest comes first: equal for the same
+/// triangle in the same winding, whichever vertex it starts at.
+fn winding_key(t: &[DVec3; 3]) -> [u64; 9] {
+    let bits = |v: DVec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+    let b = [bits(t[0]), bits(t[1]), bits(t[2])];
+    let first = (0..3).min_by_key(|&i| b[i]).unwrap_or(0);
+    let mut key = [0; 9];
+    for k in 0..3 {
+        key[3 * k..3 * k + 3].copy_from_slice(&b[(first + k) % 3]);
+    }
+    key
 }
 
 /// Geometry of an object.
