@@ -68,7 +68,10 @@ pub fn refit_as_ggx(c: &Colour) -> Result<(Colour, Option<String>), String> {
     use crate::fit::{FitOptions, fit};
     use crate::model::ModelKind;
     use crate::simulate::{Grid, simulate};
-    if matches!(c.model.kind, ModelKind::Lambert | ModelKind::GgxSmith) {
+    if matches!(
+        c.model.kind,
+        ModelKind::Lambert | ModelKind::GgxSmith | ModelKind::GgxSmith2
+    ) {
         return Ok((c.clone(), None));
     }
     let dirs = Grid::Hemisphere(20_000).directions(1);
@@ -87,6 +90,7 @@ pub fn refit_as_ggx(c: &Colour) -> Result<(Colour, Option<String>), String> {
         model: lobe,
         pd: [0.0; 3],
         ps: [0.0; 3],
+        ps2: [0.0; 3],
         notes: c.notes.clone(),
         exact: c.exact,
     };
@@ -128,7 +132,8 @@ pub fn refit_as_ggx(c: &Colour) -> Result<(Colour, Option<String>), String> {
 
 /// Mitsuba 3 BSDF XML snippet of the material (values at full precision; reflectances above 1
 /// written as `<spectrum>` or an unbounded sRGB texture, which Mitsuba loads): lambert as
-/// `diffuse`, ggx-smith as the exact `blendbsdf` below, any other model refitted as ggx-smith
+/// `diffuse`, ggx-smith and ggx-smith-2 as the exact `blendbsdf`s below, any other model
+/// refitted as ggx-smith
 /// ([`refit_as_ggx`]), the refit's error written in the file.
 pub fn mitsuba(c: &Colour, id: &str) -> Result<String, String> {
     let (c, refit) = refit_as_ggx(c)?;
@@ -159,6 +164,32 @@ pub fn mitsuba(c: &Colour, id: &str) -> Result<String, String> {
             full(eta),
             mitsuba_reflectance("specular_reflectance", c.ps.map(|v| 2.0 * v), "        "),
         ),
+        MaterialKind::DiffusePlusTwoConductors {
+            alpha1,
+            alpha2,
+            eta,
+            ..
+        } => {
+            let lobe = |alpha: f64, ps: [f64; 3]| {
+                format!(
+                    "        <bsdf type=\"roughconductor\">\n            <string name=\"distribution\" value=\"ggx\"/>\n            <float name=\"alpha\" value=\"{}\"/>\n            <boolean name=\"sample_visible\" value=\"true\"/>\n            <spectrum name=\"eta\" value=\"{}\"/>\n            <spectrum name=\"k\" value=\"0\"/>\n{}        </bsdf>\n",
+                    full(alpha),
+                    full(eta),
+                    mitsuba_reflectance(
+                        "specular_reflectance",
+                        ps.map(|v| 3.0 * v),
+                        "            "
+                    )
+                )
+            };
+            format!(
+                "<!-- f_r = pd/pi + (ps1 D1 G1 G1 + ps2 D2 G1 G1) F/(4 cos cos) as the mean of three BSDFs, each weighted 1/3: diffuse(3 pd) blended (weight 2/3) with the even blend of roughconductor(ggx, alpha1, eta = n, k = 0, specular_reflectance = 3 ps1) and roughconductor(ggx, alpha2, eta = n, k = 0, specular_reflectance = 3 ps2); a conductor with k = 0 has the unpolarised dielectric Fresnel reflectance -->\n<bsdf type=\"blendbsdf\" id=\"{id}\">\n    <float name=\"weight\" value=\"{}\"/>\n    <bsdf type=\"diffuse\">\n{}    </bsdf>\n    <bsdf type=\"blendbsdf\">\n        <float name=\"weight\" value=\"0.5\"/>\n{}{}    </bsdf>\n</bsdf>\n",
+                full(2.0 / 3.0),
+                mitsuba_reflectance("reflectance", c.pd.map(|v| 3.0 * v), "        "),
+                lobe(alpha1, c.ps),
+                lobe(alpha2, c.ps2),
+            )
+        }
         _ => format!(
             "<bsdf type=\"diffuse\" id=\"{id}\">\n{}</bsdf>\n",
             mitsuba_reflectance("reflectance", c.pd, "    ")
@@ -182,7 +213,12 @@ pub fn pbrt(c: &Colour) -> String {
     let m = &c.model;
     let mat = m.material();
     // pbrt-v4 has no sum of a diffuse and a conductor lobe (see below).
-    let exact = mat.exact && !matches!(mat.kind, MaterialKind::DiffusePlusConductor { .. });
+    let exact = mat.exact
+        && !matches!(
+            mat.kind,
+            MaterialKind::DiffusePlusConductor { .. }
+                | MaterialKind::DiffusePlusTwoConductors { .. }
+        );
     let head = format!("# {}\n", heading(m, &mat, exact).replace("\n     ", "\n# "));
     let head = head + &colour_notes(c, "# ");
     let rgb = |v: [f64; 3]| format!("{} {} {}", full(v[0]), full(v[1]), full(v[2]));
@@ -207,6 +243,21 @@ pub fn pbrt(c: &Colour) -> String {
             full(alpha),
             full(eta),
             rgb(c.ps)
+        ),
+        MaterialKind::DiffusePlusTwoConductors {
+            alpha1,
+            alpha2,
+            eta,
+            ..
+        } => format!(
+            "# Not exact in pbrt-v4: its conductor uses the height-correlated Smith G = 1/(1 + L(o) + L(i)), not the separable G1 G1, has no scale for ps (ps1 = {4}, ps2 = {5}: each lobe below has ps = 1), and \"mix\" picks one material per ray (its mean is the average of the three, each weighted 1/3).\nMakeNamedMaterial \"brdfit-diffuse\" \"string type\" \"diffuse\" \"rgb reflectance\" [ {0} ]\nMakeNamedMaterial \"brdfit-lobe1\" \"string type\" \"conductor\" \"float roughness\" [ {1} ] \"bool remaproughness\" false \"spectrum eta\" [ 400 {3} 700 {3} ] \"spectrum k\" [ 400 0 700 0 ]\nMakeNamedMaterial \"brdfit-lobe2\" \"string type\" \"conductor\" \"float roughness\" [ {2} ] \"bool remaproughness\" false \"spectrum eta\" [ 400 {3} 700 {3} ] \"spectrum k\" [ 400 0 700 0 ]\nMakeNamedMaterial \"brdfit-lobes\" \"string type\" \"mix\" \"string materials\" [ \"brdfit-lobe1\" \"brdfit-lobe2\" ] \"float amount\" [ 0.5 ]\nMaterial \"mix\" \"string materials\" [ \"brdfit-diffuse\" \"brdfit-lobes\" ] \"float amount\" [ {6} ]\n",
+            rgb(c.pd.map(|v| 3.0 * v)),
+            full(alpha1),
+            full(alpha2),
+            full(eta),
+            rgb(c.ps),
+            rgb(c.ps2),
+            full(2.0 / 3.0)
         ),
     }
 }

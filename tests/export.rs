@@ -262,6 +262,62 @@ fn mitsuba_loads_each_export_and_evaluates_the_fitted_f_r() {
     eprintln!("ggx-smith rgb: largest relative difference {e:.2e}");
     assert!(e < 2e-5, "{e}");
 
+    // ggx-smith-2, grey: a sharp and a broad lobe (3 ps1 = 3.6 > 1), nested blendbsdfs.
+    let p = "alpha1=0.03,ps1=1.2,alpha2=0.4,ps2=0.5,n=1.6,pd=0.15";
+    let f = fit(
+        "ggx2.json",
+        &obj(
+            "ggx-smith-2",
+            "brdf",
+            r#"{"alpha1": 0.03, "ps1": 1.2, "alpha2": 0.4, "ps2": 0.5, "n": 1.6, "pd": 0.15}"#,
+        ),
+    );
+    let (got, xml) = mitsuba(&f);
+    assert!(xml.contains("(exact)"), "{xml}");
+    let e = worst(&got, &grey(eval("ggx-smith-2", p)));
+    eprintln!("ggx-smith-2 grey: largest relative difference {e:.2e}");
+    assert!(e < 2e-5, "{e}");
+
+    // ggx-smith-2, RGB: one pair of lobes, per-channel ps1, ps2 and pd.
+    let chans2 = [
+        ("r", 0.5, 0.3, 0.15),
+        ("g", 0.7, 0.3, 0.3),
+        ("b", 0.2, 0.4, 0.05),
+    ];
+    let fits: Vec<String> = chans2
+        .iter()
+        .map(|(c, ps1, ps2, pd)| {
+            obj(
+                "ggx-smith-2",
+                c,
+                &format!(
+                    r#"{{"alpha1": 0.05, "ps1": {ps1}, "alpha2": 0.3, "ps2": {ps2}, "n": 1.5, "pd": {pd}}}"#
+                ),
+            )
+        })
+        .collect();
+    let f = fit("rgb2.json", &format!(r#"{{"fits": [{}]}}"#, fits.join(",")));
+    let (got, xml) = mitsuba(&f);
+    assert!(
+        xml.contains("unbounded") && !xml.contains("compromise"),
+        "{xml}"
+    );
+    let per: Vec<Vec<f64>> = chans2
+        .iter()
+        .map(|(_, ps1, ps2, pd)| {
+            eval(
+                "ggx-smith-2",
+                &format!("alpha1=0.05,ps1={ps1},alpha2=0.3,ps2={ps2},n=1.5,pd={pd}"),
+            )
+        })
+        .collect();
+    let want: Vec<[f64; 3]> = (0..300)
+        .map(|k| [per[0][k], per[1][k], per[2][k]])
+        .collect();
+    let e = worst(&got, &want);
+    eprintln!("ggx-smith-2 rgb: largest relative difference {e:.2e}");
+    assert!(e < 2e-5, "{e}");
+
     // Torrance–Sparrow (Blinn's MgO): the refit loads, and its stated median error is the one
     // Mitsuba's values show against the Torrance–Sparrow model.
     let f = fit(

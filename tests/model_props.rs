@@ -44,7 +44,26 @@ fn model_strategy() -> impl Strategy<Value = Model> {
         (0.02..1.0f64, 1.01..300.0f64, 0.0..2.0f64, 0.0..1.0f64).prop_map(|(a, n, ps, pd)| {
             Model::new(ModelKind::GgxSmith, Distribution::D3, &[a, n, ps, pd]).unwrap()
         }),
+        (
+            0.02..1.0f64,
+            0.02..1.0f64,
+            1.01..300.0f64,
+            0.0..2.0f64,
+            0.0..2.0f64,
+            0.0..1.0f64
+        )
+            .prop_map(|(a, b, n, ps1, ps2, pd)| ggx2(a.min(b), ps1, a.max(b), ps2, n, pd)),
     ]
+}
+
+/// ggx-smith-2 with alpha1 ≤ alpha2.
+fn ggx2(a1: f64, ps1: f64, a2: f64, ps2: f64, n: f64, pd: f64) -> Model {
+    Model::new(
+        ModelKind::GgxSmith2,
+        Distribution::D3,
+        &[a1, ps1, a2, ps2, n, pd],
+    )
+    .unwrap()
 }
 
 fn angles() -> impl Strategy<Value = [f64; 4]> {
@@ -57,7 +76,7 @@ proptest! {
     #[test]
     fn gradient_matches_central_differences(m in model_strategy(), a in angles()) {
         let g = Geometry::from_angles(a[0], a[1], a[2], a[3]);
-        let mut grad = [0.0; 4];
+        let mut grad = [0.0; brdfit::model::MAX_PARAMS];
         let f = m.brdf_grad(&g, &mut grad);
         prop_assert!((f - m.brdf(&g)).abs() <= 1e-12 * (1.0 + f.abs()));
         let p = m.params().to_vec();
@@ -85,6 +104,14 @@ proptest! {
         let m = Model::new(ModelKind::GgxSmith, Distribution::D3, &[alpha, n, 0.7, 0.3]).unwrap();
         let f1 = m.brdf(&Geometry::from_angles(a[0], a[1], a[2], a[3]));
         let f2 = m.brdf(&Geometry::from_angles(a[2], a[3], a[0], a[1]));
+        prop_assert!((f1 - f2).abs() <= 1e-10 * (1.0 + f1.abs()));
+    }
+
+    #[test]
+    fn ggx_smith_2_reciprocal(a in 0.02..1.0f64, b in 0.02..1.0f64, n in 1.01..300.0f64, x in angles()) {
+        let m = ggx2(a.min(b), 0.6, a.max(b), 0.3, n, 0.1);
+        let f1 = m.brdf(&Geometry::from_angles(x[0], x[1], x[2], x[3]));
+        let f2 = m.brdf(&Geometry::from_angles(x[2], x[3], x[0], x[1]));
         prop_assert!((f1 - f2).abs() <= 1e-10 * (1.0 + f1.abs()));
     }
 

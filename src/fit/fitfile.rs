@@ -339,6 +339,28 @@ pub(crate) fn check_fit_object(v: &serde_json::Value) -> Result<(), FitFileError
             ));
         }
     }
+    // The lobes' order (ggx-smith-2: alpha1 ≤ alpha2), per channel.
+    for c in &channels {
+        let vals: Vec<f64> = specs
+            .iter()
+            .map(|spec| {
+                let own = params.get(spec.name);
+                let per = params.get(&format!("{}_{c}", spec.name));
+                own.or(per).and_then(|x| x.as_f64()).unwrap_or(f64::NAN)
+            })
+            .collect();
+        if let Err(e) = Model::check_order(kind, &vals) {
+            let crate::model::ModelError::Order { what, fix, .. } = e else {
+                continue;
+            };
+            let on = if channels.len() > 1 {
+                format!(" (channel {c})")
+            } else {
+                String::new()
+            };
+            return Err(err(format!("params: {what}{on}"), fix));
+        }
+    }
     for key in ["unusable", "warnings"] {
         if let Some(x) = obj.get(key)
             && !x
@@ -730,8 +752,12 @@ pub struct Colour {
     pub model: Model,
     /// The diffuse coefficient pd in linear sRGB.
     pub pd: [f64; 3],
-    /// The specular coefficient ps in linear sRGB (0 for a model without one).
+    /// The specular coefficient ps in linear sRGB (0 for a model without one; ps1 of
+    /// ggx-smith-2).
     pub ps: [f64; 3],
+    /// The second lobe's specular coefficient in linear sRGB (ps2 of ggx-smith-2; 0 for a model
+    /// with one lobe).
+    pub ps2: [f64; 3],
     /// How the channels became colour, and the compromise where their lobes differ.
     pub notes: Vec<String>,
     /// False when the channels' lobes differ and one stands for all (a compromise).
@@ -744,7 +770,8 @@ impl Colour {
         Colour {
             model: *m,
             pd: [m.pd(); 3],
-            ps: [m.role(crate::model::Role::Specular).unwrap_or(0.0); 3],
+            ps: [specular(m, 0); 3],
+            ps2: [specular(m, 1); 3],
             notes: vec![],
             exact: true,
         }
@@ -752,21 +779,37 @@ impl Colour {
 
     /// True when r, g and b are the same (a grey material).
     pub fn is_grey(&self) -> bool {
-        self.pd.iter().all(|&v| v == self.pd[0]) && self.ps.iter().all(|&v| v == self.ps[0])
+        self.pd.iter().all(|&v| v == self.pd[0])
+            && self.ps.iter().all(|&v| v == self.ps[0])
+            && self.ps2.iter().all(|&v| v == self.ps2[0])
     }
 
     /// The model of colour channel `c` (0 = red, 1 = green, 2 = blue).
     pub fn channel_model(&self, c: usize) -> Model {
         let mut m = self.model;
+        let mut lobe = 0;
         for (i, spec) in m.kind.params(m.dist).iter().enumerate() {
             match spec.role {
                 crate::model::Role::Diffuse => m.p[i] = self.pd[c],
-                crate::model::Role::Specular => m.p[i] = self.ps[c],
+                crate::model::Role::Specular => {
+                    m.p[i] = if lobe == 0 { self.ps[c] } else { self.ps2[c] };
+                    lobe += 1;
+                }
                 _ => {}
             }
         }
         m
     }
+}
+
+/// The `k`-th specular coefficient of `m` (ps, or ps1 and ps2 of ggx-smith-2), 0 if it has none.
+fn specular(m: &Model, k: usize) -> f64 {
+    m.specs()
+        .iter()
+        .zip(m.params())
+        .filter(|(s, _)| s.role == crate::model::Role::Specular)
+        .nth(k)
+        .map_or(0.0, |(_, v)| *v)
 }
 
 /// A wavelength channel's λ in nm (`550nm` → 550).
@@ -893,20 +936,32 @@ impl Picked {
         // Each channel's (ps, pd): its own where the lobe is shared; otherwise refitted under the
         // reference lobe to that channel's own model (keeping a channel's ps with another
         // channel's lobe and index can be wrong many times over).
-        let mut coef: Vec<(f64, f64)> = ch
+        let mut coef: Vec<(f64, f64, f64)> = ch
             .iter()
-            .map(|c| {
-                (
-                    c.model.role(crate::model::Role::Specular).unwrap_or(0.0),
-                    c.model.pd(),
-                )
-            })
+            .map(|c| (specular(&c.model, 0), c.model.pd(), specular(&c.model, 1)))
             .collect();
         if !exact {
             let mut errors = Vec::new();
+            let lobe = &ch[reference].model;
+            // Two lobes keep the reference channel's ratio ps2 : ps1.
+            let total = specular(lobe, 0) + specular(lobe, 1);
+            let lobes = lobe
+                .specs()
+                .iter()
+                .filter(|s| s.role == crate::model::Role::Specular)
+                .count();
+            let share = |k: usize| {
+                if total > 0.0 {
+                    specular(lobe, k) / total
+                } else if k < lobes {
+                    1.0 / lobes as f64
+                } else {
+                    0.0
+                }
+            };
             for (k, c) in ch.iter().enumerate() {
-                let (ps, pd, median) = refit_reflectances(&ch[reference].model, &c.model);
-                coef[k] = (ps, pd);
+                let (ps, pd, median) = refit_reflectances(lobe, &c.model);
+                coef[k] = (ps * share(0), pd, ps * share(1));
                 errors.push(format!(
                     "{} {}",
                     c.channel,
@@ -920,7 +975,7 @@ impl Picked {
                 errors.join(", ")
             ));
         }
-        let mix = |pick: fn(&(f64, f64)) -> f64| -> [f64; 3] {
+        let mix = |pick: fn(&(f64, f64, f64)) -> f64| -> [f64; 3] {
             let mut out = [0.0; 3];
             for (c, wc) in coef.iter().zip(&w) {
                 let v = pick(c);
@@ -934,6 +989,7 @@ impl Picked {
             model: ch[reference].model,
             pd: mix(|c| c.1),
             ps: mix(|c| c.0),
+            ps2: mix(|c| c.2),
             notes,
             exact,
         })
@@ -943,13 +999,24 @@ impl Picked {
 /// The (ps, pd) ≥ 0 that make `lobe`'s model closest to `target` in relative f_r
 /// (Σ ((ps S + pd D − f) / f)² over θi 10–80° in 10° steps, θo 0–85° in 5° steps, Δφ 0–180° in
 /// 15° steps, where S and D are `lobe` with (ps, pd) = (1, 0) and (0, 1): f_r is linear in both),
-/// and the median relative error that remains.
+/// and the median relative error that remains. With two lobes ps is their sum, split as in
+/// `lobe` (ps1 : ps2 held).
 fn refit_reflectances(lobe: &Model, target: &Model) -> (f64, f64, f64) {
     use crate::model::{Geometry, Role};
+    let total = specular(lobe, 0) + specular(lobe, 1);
     let with = |ps: f64, pd: f64| {
         let mut m = *lobe;
-        if let Some(i) = m.kind.index_of(m.dist, Role::Specular) {
-            m.p[i] = ps;
+        let specs = m.specs();
+        let lobes = specs.iter().filter(|s| s.role == Role::Specular).count();
+        for (i, s) in specs.iter().enumerate() {
+            if s.role == Role::Specular {
+                let share = if total > 0.0 {
+                    lobe.p[i] / total
+                } else {
+                    1.0 / lobes as f64
+                };
+                m.p[i] = ps * share;
+            }
         }
         if let Some(i) = m.kind.index_of(m.dist, Role::Diffuse) {
             m.p[i] = pd;

@@ -485,6 +485,7 @@ fn fill_rows(
         let target = match loss {
             Loss::Log => lanes::ln_1p(&y).0,
             Loss::Linear => v,
+            Loss::Pixel => y.map(|x| problem::pixel(x).0),
         };
         // L·E = sinθi sinθo cos(φo − φi) + cosθi cosθo. Columns in the order of [`Rows::write`].
         let mut col = [[0.0; LANES]; 8];
@@ -1452,6 +1453,23 @@ fn linear_pass(
             ab,
         ),
         Loss::Linear => linear_pass_linear(&rows.target[range], sw, s, ab),
+        Loss::Pixel => {
+            // Row by row (the pixel loss serves small scene-weighted sets).
+            let mut t = [0.0; 6];
+            for (k, i) in range.enumerate() {
+                let w = sw.get(k).copied().unwrap_or(1.0);
+                let (v, d) = loss.term(ab.0 * s.a[k] + ab.1 * s.b[k], rows.nl[i]);
+                let r = w * (v - rows.target[i]);
+                let (ja, jb) = (w * d * s.a[k], w * d * s.b[k]);
+                t[0] += 0.5 * r * r;
+                t[1] += ja * ja;
+                t[2] += ja * jb;
+                t[3] += jb * jb;
+                t[4] += ja * r;
+                t[5] += jb * r;
+            }
+            t
+        }
     };
     (t[0], [t[1], t[2], t[3]], [t[4], t[5]])
 }
@@ -1846,10 +1864,21 @@ fn linearised_data(p: &BrdfProblem, loss: Loss) -> (Vec<f64>, Vec<f64>) {
             let fd = match loss {
                 Loss::Log => r.target.exp_m1() / r.cos_i,
                 Loss::Linear => r.target,
+                // The sRGB encoding inverted (the smooth clip taken as none).
+                Loss::Pixel => {
+                    let v = r.target.max(0.0);
+                    let c = if v <= 12.92 * 0.003_130_8 {
+                        v / 12.92
+                    } else {
+                        ((v + 0.055) / 1.055).powf(2.4)
+                    };
+                    c / r.cos_i
+                }
             };
             let w = match loss {
                 Loss::Log => (r.cos_i / (1.0 + r.cos_i * fd)).powi(2),
                 Loss::Linear => 1.0,
+                Loss::Pixel => loss.term(fd, r.cos_i).1.powi(2),
             } * r.sw
                 * r.sw;
             (fd, w)

@@ -15,7 +15,7 @@ use super::{
 };
 use std::f64::consts::{FRAC_1_PI, PI};
 
-const ALPHA: ParamSpec = ParamSpec {
+pub(super) const ALPHA: ParamSpec = ParamSpec {
     name: "alpha",
     role: Role::Shape,
     meaning: "GGX roughness α (the slope width of the normal distribution)",
@@ -48,14 +48,14 @@ fn smith_g1(alpha: f64, c: f64) -> (f64, f64) {
     (g, -g * g * 0.5 * alpha * tan2 / s)
 }
 
-/// f_r and its gradient with respect to (alpha, n, ps, pd).
+/// One normalised GGX–Smith lobe without its Fresnel factor, D(H; α) G1(L; α) G1(E; α) /
+/// (4 N·L N·E) (Walter et al. 2007, eqs. 20, 33, 34), and its derivative with respect to α;
+/// (0, 0) where N·H ≤ 0 or E·H ≤ 0. The caller makes sure N·L, N·E > 0.
 #[inline]
-pub(super) fn brdf_grad(m: &Model, g: &Geometry, grad: &mut [f64]) -> f64 {
-    let (alpha, n, ps, pd) = (m.p[0], m.p[1], m.p[2], m.p[3]);
+pub(super) fn lobe(alpha: f64, g: &Geometry) -> (f64, f64) {
     let nh = g.nh;
     if nh <= 0.0 || g.eh <= 0.0 {
-        grad[3] = FRAC_1_PI;
-        return pd * FRAC_1_PI;
+        return (0.0, 0.0);
     }
     let a2 = alpha * alpha;
     let nh2 = nh * nh;
@@ -65,13 +65,27 @@ pub(super) fn brdf_grad(m: &Model, g: &Geometry, grad: &mut [f64]) -> f64 {
     let dd = d * (2.0 / alpha - 4.0 * alpha / q);
     let (gl, dgl) = smith_g1(alpha, g.nl);
     let (ge, dge) = smith_g1(alpha, g.ne);
-    let (f, df) = fresnel_dn(n, g.eh);
     let w = 1.0 / (4.0 * g.nl * g.ne);
-    let spec = f * d * gl * ge * w;
-    grad[0] = ps * f * w * (dd * gl * ge + d * (dgl * ge + gl * dge));
-    grad[1] = ps * df * d * gl * ge * w;
-    grad[2] = spec;
+    (
+        d * gl * ge * w,
+        w * (dd * gl * ge + d * (dgl * ge + gl * dge)),
+    )
+}
+
+/// f_r and its gradient with respect to (alpha, n, ps, pd).
+#[inline]
+pub(super) fn brdf_grad(m: &Model, g: &Geometry, grad: &mut [f64]) -> f64 {
+    let (alpha, n, ps, pd) = (m.p[0], m.p[1], m.p[2], m.p[3]);
     grad[3] = FRAC_1_PI;
+    if g.nh <= 0.0 || g.eh <= 0.0 {
+        return pd * FRAC_1_PI;
+    }
+    let (s, ds) = lobe(alpha, g);
+    let (f, df) = fresnel_dn(n, g.eh);
+    let spec = f * s;
+    grad[0] = ps * f * ds;
+    grad[1] = ps * df * s;
+    grad[2] = spec;
     pd * FRAC_1_PI + ps * spec
 }
 
@@ -90,7 +104,22 @@ pub(super) fn material(m: &Model) -> Material {
     }
 }
 
+/// GLSL shared by the GGX–Smith lobes: H, N·H, tan² of θh, θl, θv and the exact Fresnel `F`
+/// of index `n` at c = V·H.
+pub(super) const GLSL_SHARED: &str = "    vec3 H = normalize(L + V);\n    float NdotH = dot(N, H);\n    float c = dot(V, H);\n    float t2 = (1.0 - NdotH * NdotH) / (NdotH * NdotH);\n    float tl = (1.0 - NdotL * NdotL) / (NdotL * NdotL);\n    float tv = (1.0 - NdotV * NdotV) / (NdotV * NdotV);\n    float g = sqrt(n * n + c * c - 1.0);\n    float F = 0.5 * pow((g - c) / (g + c), 2.0) * (1.0 + pow((c * (g + c) - 1.0) / (c * (g - c) + 1.0), 2.0));\n";
+
+/// GLSL of one lobe without F ([`lobe`]): `S{tag} = D G1 G1 / (4 N·L N·V)` with roughness
+/// uniform `alpha` (after [`GLSL_SHARED`]).
+pub(super) fn glsl_lobe(alpha: &str, tag: &str) -> String {
+    format!(
+        "    float a2{tag} = {alpha} * {alpha};\n    float D{tag} = a2{tag} / (PI * pow(NdotH, 4.0) * pow(a2{tag} + t2, 2.0));\n    float G{tag} = 4.0 / ((1.0 + sqrt(1.0 + a2{tag} * tl)) * (1.0 + sqrt(1.0 + a2{tag} * tv)));\n    float S{tag} = D{tag} * G{tag} / (4.0 * NdotL * NdotV);\n"
+    )
+}
+
 /// F D G1 G1 / (4 N·L N·V).
 pub(super) fn glsl(_: &Model) -> String {
-    "    vec3 H = normalize(L + V);\n    float NdotH = dot(N, H);\n    float c = dot(V, H);\n    float a2 = alpha * alpha;\n    float t2 = (1.0 - NdotH * NdotH) / (NdotH * NdotH);\n    float D = a2 / (PI * pow(NdotH, 4.0) * pow(a2 + t2, 2.0));\n    float tl = (1.0 - NdotL * NdotL) / (NdotL * NdotL);\n    float tv = (1.0 - NdotV * NdotV) / (NdotV * NdotV);\n    float G = 4.0 / ((1.0 + sqrt(1.0 + a2 * tl)) * (1.0 + sqrt(1.0 + a2 * tv)));\n    float g = sqrt(n * n + c * c - 1.0);\n    float F = 0.5 * pow((g - c) / (g + c), 2.0) * (1.0 + pow((c * (g + c) - 1.0) / (c * (g - c) + 1.0), 2.0));\n    return vec3(pd / PI + ps * F * D * G / (4.0 * NdotL * NdotV));".into()
+    format!(
+        "{GLSL_SHARED}{}    return vec3(pd / PI + ps * F * S);",
+        glsl_lobe("alpha", "")
+    )
 }

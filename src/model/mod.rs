@@ -19,6 +19,7 @@
 
 pub mod albedo;
 mod ggx_smith;
+mod ggx_smith_2;
 mod lambert;
 mod phong;
 mod torrance_sparrow;
@@ -161,6 +162,11 @@ pub enum ModelKind {
     TorranceSparrow,
     /// GGX–Smith (Walter et al. 2007): f_r = pd/π + ps F D G1 G1 / (4 N·L N·E).
     GgxSmith,
+    /// Two GGX–Smith lobes sharing the Fresnel index: f_r = pd/π + Σₖ psₖ F Dₖ G1ₖ G1ₖ /
+    /// (4 N·L N·E), alpha1 ≤ alpha2.
+    #[value(name = "ggx-smith-2")]
+    #[serde(rename = "ggx-smith-2")]
+    GgxSmith2,
 }
 
 impl ModelKind {
@@ -181,6 +187,7 @@ impl ModelKind {
             ModelKind::BlinnPhong => "blinn-phong",
             ModelKind::TorranceSparrow => "torrance-sparrow",
             ModelKind::GgxSmith => "ggx-smith",
+            ModelKind::GgxSmith2 => "ggx-smith-2",
         }
     }
 
@@ -228,6 +235,7 @@ impl ModelKind {
             ModelKind::Phong | ModelKind::BlinnPhong => phong::params(dist),
             ModelKind::TorranceSparrow => torrance_sparrow::params(dist),
             ModelKind::GgxSmith => ggx_smith::params(dist),
+            ModelKind::GgxSmith2 => ggx_smith_2::params(dist),
         }
     }
 
@@ -504,6 +512,24 @@ pub enum MaterialKind {
         /// ps.
         scale: f64,
     },
+    /// pd/π plus two GGX–Smith lobes sharing the Fresnel of index `eta` (k = 0), scaled by
+    /// `scale1` and `scale2`: Mitsuba `blendbsdf` (weight ⅔) of `diffuse` (3 pd) and a
+    /// `blendbsdf` (weight ½) of two `roughconductor`s (specular_reflectance 3 ps1, 3 ps2), so
+    /// each part enters with weight ⅓.
+    DiffusePlusTwoConductors {
+        /// pd.
+        diffuse: f64,
+        /// GGX roughness α of the first (sharper) lobe.
+        alpha1: f64,
+        /// ps1.
+        scale1: f64,
+        /// GGX roughness α of the second (broader) lobe.
+        alpha2: f64,
+        /// ps2.
+        scale2: f64,
+        /// Index of the Fresnel term.
+        eta: f64,
+    },
 }
 
 /// What differs between Blinn's models and the GGX materials of Mitsuba 3 and pbrt-v4.
@@ -536,7 +562,7 @@ impl ModelError {
             ModelError::Missing { name, .. } | ModelError::OutOfBounds { name, .. } => {
                 Some(crate::setting::Setting::Value(name.to_string()))
             }
-            ModelError::Unknown { .. } => None,
+            ModelError::Unknown { .. } | ModelError::Order { .. } => None,
         }
     }
 }
@@ -561,6 +587,16 @@ pub enum ModelError {
         name: String,
         /// Comma-separated valid names.
         expected: String,
+    },
+    /// Parameters in an order the model refuses (ggx-smith-2's alpha1 > alpha2).
+    #[error("model {model}: {what}; {fix}")]
+    Order {
+        /// Model name.
+        model: &'static str,
+        /// What is out of order.
+        what: String,
+        /// The same material in order.
+        fix: String,
     },
     /// A parameter value outside its bounds.
     #[error("parameter {name} = {value} is out of bounds: {bounds}")]
@@ -610,6 +646,7 @@ impl Model {
             }
             p[i] = v;
         }
+        Self::check_order(kind, &p)?;
         Ok(Model {
             kind,
             dist,
@@ -709,6 +746,25 @@ impl Model {
         m
     }
 
+    /// The same f_r with its parameters in canonical order (ggx-smith-2: the lobes swapped
+    /// where alpha1 > alpha2; every other model as it is). The fitter returns this.
+    pub fn canonical(&self) -> Self {
+        let mut m = *self;
+        if m.kind == ModelKind::GgxSmith2 {
+            ggx_smith_2::canonical(&mut m.p);
+        }
+        m
+    }
+
+    /// Why the parameter values are out of order for the model (ggx-smith-2: alpha1 > alpha2),
+    /// with the fix; Ok for every other model.
+    pub fn check_order(kind: ModelKind, params: &[f64]) -> Result<(), ModelError> {
+        if kind == ModelKind::GgxSmith2 && params.len() >= 4 {
+            ggx_smith_2::check_order(params)?;
+        }
+        Ok(())
+    }
+
     /// Blinn's reflected intensity i(L, E) for a unit light (0 where the BRDF is 0).
     pub fn intensity(&self, g: &Geometry) -> f64 {
         self.brdf(g) * PI * g.nl.max(0.0)
@@ -735,6 +791,7 @@ impl Model {
             ModelKind::Phong | ModelKind::BlinnPhong => phong::brdf_grad(self, g, grad),
             ModelKind::TorranceSparrow => torrance_sparrow::brdf_grad(self, g, grad),
             ModelKind::GgxSmith => ggx_smith::brdf_grad(self, g, grad),
+            ModelKind::GgxSmith2 => ggx_smith_2::brdf_grad(self, g, grad),
         }
     }
 
@@ -745,6 +802,7 @@ impl Model {
             ModelKind::Phong | ModelKind::BlinnPhong => phong::material(self),
             ModelKind::TorranceSparrow => torrance_sparrow::material(self),
             ModelKind::GgxSmith => ggx_smith::material(self),
+            ModelKind::GgxSmith2 => ggx_smith_2::material(self),
         }
     }
 
@@ -756,6 +814,7 @@ impl Model {
             ModelKind::Phong | ModelKind::BlinnPhong => phong::glsl(self),
             ModelKind::TorranceSparrow => torrance_sparrow::glsl(self),
             ModelKind::GgxSmith => ggx_smith::glsl(self),
+            ModelKind::GgxSmith2 => ggx_smith_2::glsl(self),
         }
     }
 }

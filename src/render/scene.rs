@@ -745,12 +745,28 @@ fn fit_material(
     }
     let lobe = colour.channel_model(0);
     let mut unit = lobe;
+    // A second lobe (ggx-smith-2's ps2) keeps its ratio to the first, ps2 : ps1 over r, g, b.
+    let (s1, s2) = (
+        colour.ps.iter().sum::<f64>(),
+        colour.ps2.iter().sum::<f64>(),
+    );
+    let ratio = if s1 > 0.0 { s2 / s1 } else { 1.0 };
+    if (0..3).any(|c| (colour.ps2[c] - ratio * colour.ps[c]).abs() > 1e-9 * s2.max(1e-300)) {
+        eprintln!(
+            "note: material {name}: {}: the two lobes' colours differ; rendered with ps2 = {} ps1 in every channel (their ratio over r + g + b)",
+            p.display(),
+            crate::model::readable(ratio)
+        );
+    }
+    let mut lobe_no = 0;
     for (i, spec) in lobe.kind.params(lobe.dist).iter().enumerate() {
-        if matches!(
-            spec.role,
-            crate::model::Role::Diffuse | crate::model::Role::Specular
-        ) {
-            unit.p[i] = 1.0;
+        match spec.role {
+            crate::model::Role::Diffuse => unit.p[i] = 1.0,
+            crate::model::Role::Specular => {
+                unit.p[i] = if lobe_no == 0 { 1.0 } else { ratio };
+                lobe_no += 1;
+            }
+            _ => {}
         }
     }
     Ok((
