@@ -3,24 +3,10 @@
 
 use super::*;
 
-/// The weighted sums of the two-parameter linear problem y ≈ ps s + pd/π of the global
-/// initialisation, y = f_data − ps_fixed s − pd_fixed/π: [Σws², Σws/π, Σw/π², Σwsy, Σwy/π,
-/// Σwy²], from the basis sums [Σws², Σws, Σ(wf)s] of [`basis_sums`] (or
-/// [`ts_grid_sums`]), the basis-free sums k and the fixed (ps, pd).
-pub(super) fn combine_sums([ss, s1, sf]: [f64; 3], k: [f64; 3], fixed: (f64, f64)) -> [f64; 6] {
-    let [w1, f1, ff] = k;
-    let d = std::f64::consts::FRAC_1_PI;
-    let (a, b) = (fixed.0, fixed.1 * d);
-    // y = f − a s − b, expanded.
-    let sy = sf - a * ss - b * s1;
-    let y1 = f1 - a * s1 - b * w1;
-    let yy = ff + a * a * ss + b * b * w1 - 2.0 * a * sf - 2.0 * b * f1 + 2.0 * a * b * s1;
-    [ss, s1 * d, w1 * d * d, sy, y1 * d, yy]
-}
-
 /// Torrance–Sparrow's specular basis s = D(c)·F(n)·G/(π N·L N·E) at every point of a grid of
-/// n (`ns`) and the distribution's c (`cs`) is a term in n alone times a term in c alone:
-/// rows of `a` (F(n)·G/(π N·L N·E), one per n) times rows of `b` (D(c), one per c).
+/// n (`ns`) and the distribution's shape parameters (`cs`: each point's values, c for D1–D3,
+/// (b, c) for ABC) is a term in n alone times a term in the shape alone: rows of `a`
+/// (F(n)·G/(π N·L N·E), one per n) times rows of `b` (D, one per shape point).
 pub(super) struct TsFactors {
     /// F(n)·G/(π N·L N·E), one row of m per n, row-major.
     pub(super) a: Vec<f64>,
@@ -30,7 +16,7 @@ pub(super) struct TsFactors {
 }
 
 impl TsFactors {
-    fn new(rows: &Rows, dist: Distribution, ns: &[f64], cs: &[f64]) -> Self {
+    fn new(rows: &Rows, dist: Distribution, ns: &[f64], cs: &[Vec<f64>]) -> Self {
         let m = rows.len();
         let pi = std::f64::consts::FRAC_1_PI;
         let geo: Vec<f64> = (0..m).map(|r| rows.g_ne[r] * pi / rows.nl[r]).collect();
@@ -42,7 +28,7 @@ impl TsFactors {
             .collect();
         let b = cs
             .iter()
-            .flat_map(|&c| (0..m).map(move |r| dist.eval(rows.nh[r], c)))
+            .flat_map(|c| (0..m).map(move |r| dist.eval_shape(rows.nh[r], c)))
             .collect();
         TsFactors { a, b, m }
     }
@@ -288,61 +274,53 @@ pub(super) fn linear_pass_linear(tg: &[f64], sw: &[f64], s: Basis, (a, b): (f64,
     t
 }
 
-/// Minimise the declared loss over the linear coefficients (a, b) of f = a·s + b from a
-/// start, by `steps` projected Gauss–Newton steps; `lo` holds each one's lower bound, or
-/// `None` for one that is held. Returns the cost and (a, b).
+/// Minimise the declared loss over the linear coefficients c of f = Σ c_j s_j from `start`
+/// by `steps` projected Gauss–Newton steps (each backtracked up to three times); a free
+/// coefficient stays ≥ 0, a held one keeps its value. `pass` gives ½ Σ r², JᵀJ (row-major)
+/// and Jᵀr at c; `cost` the first alone (cheaper). Returns the cost and c.
 pub(super) fn refine_linear(
-    rows: &Rows,
-    range: std::ops::Range<usize>,
-    s: Basis,
-    start: (f64, f64),
-    lo: (Option<f64>, Option<f64>),
+    start: &[f64],
+    free: &[bool],
     loss: Loss,
     steps: usize,
-) -> (f64, (f64, f64)) {
-    let free = (lo.0.is_some(), lo.1.is_some());
-    let lo = (lo.0.unwrap_or(f64::MIN), lo.1.unwrap_or(f64::MIN));
-    let mut x = start;
-    if steps == 0 && loss == Loss::Log {
-        let sw = weights(rows, range.clone());
-        let cost = linear_cost_log(
-            &rows.nl[range.clone()],
-            &rows.target[range.clone()],
-            sw,
-            s,
-            x,
-        );
-        return (cost, x);
+    pass: impl Fn(&[f64]) -> (f64, Vec<f64>, Vec<f64>),
+    cost: impl Fn(&[f64]) -> f64,
+) -> (f64, Vec<f64>) {
+    let mut x = start.to_vec();
+    // The linear loss is minimised exactly by the linear solve.
+    if steps == 0 || loss == Loss::Linear {
+        return (cost(&x), x);
     }
-    let (mut cost, mut jtj, mut jtr) = linear_pass(rows, range.clone(), s, x, loss);
-    if loss == Loss::Linear {
-        return (cost, x);
-    }
+    let k = x.len();
+    let (mut c, mut jtj, mut jtr) = pass(&x);
     for _ in 0..steps {
-        let ridge = 1e-9;
-        let (da, db) = match free {
-            (true, true) => {
-                let (p, q, r) = (jtj[0] * (1.0 + ridge), jtj[1], jtj[2] * (1.0 + ridge));
-                let det = p * r - q * q;
-                if !(det > 0.0) {
-                    break;
-                }
-                (
-                    -(r * jtr[0] - q * jtr[1]) / det,
-                    -(p * jtr[1] - q * jtr[0]) / det,
-                )
-            }
-            (true, false) if jtj[0] > 0.0 => (-jtr[0] / jtj[0], 0.0),
-            (false, true) if jtj[2] > 0.0 => (0.0, -jtr[1] / jtj[2]),
-            _ => break,
+        let diag: Vec<f64> = (0..k).map(|i| jtj[i * k + i]).collect();
+        let held: Vec<bool> = (0..k).map(|i| !free[i] || !(diag[i] > 0.0)).collect();
+        if held.iter().all(|&h| h) {
+            break;
+        }
+        let d: Vec<f64> = diag
+            .iter()
+            .map(|&v| if v > 0.0 { v } else { 1.0 })
+            .collect();
+        let Some(dx) = lsq::damped_solve(&jtj, &jtr, &d, 1e-9, &held) else {
+            break;
         };
         let mut step = 1.0;
         let mut accepted = false;
         for _ in 0..3 {
-            let xn = ((x.0 + step * da).max(lo.0), (x.1 + step * db).max(lo.1));
-            let (cn, jn, gn) = linear_pass(rows, range.clone(), s, xn, loss);
-            if cn < cost {
-                (x, cost, jtj, jtr) = (xn, cn, jn, gn);
+            let xn: Vec<f64> = (0..k)
+                .map(|i| {
+                    if held[i] {
+                        x[i]
+                    } else {
+                        (x[i] + step * dx[i]).max(0.0)
+                    }
+                })
+                .collect();
+            let (cn, jn, gn) = pass(&xn);
+            if cn < c {
+                (x, c, jtj, jtr) = (xn, cn, jn, gn);
                 accepted = true;
                 break;
             }
@@ -352,7 +330,155 @@ pub(super) fn refine_linear(
             break;
         }
     }
-    (cost, x)
+    (c, x)
+}
+
+/// One pass of the declared loss over rows `range` for f = Σ c_j s_j with the bases `s` (a
+/// row loop, for models with several specular lobes): ½ Σ r² with r = sw (ℓ(f) − target),
+/// JᵀJ (row-major) and Jᵀr of c.
+pub(super) fn linear_pass_many(
+    rows: &Rows,
+    range: std::ops::Range<usize>,
+    s: &[Basis],
+    c: &[f64],
+    loss: Loss,
+) -> (f64, Vec<f64>, Vec<f64>) {
+    let k = s.len();
+    let (mut cost, mut jtj, mut jtr) = (0.0, vec![0.0; k * k], vec![0.0; k]);
+    let mut j = vec![0.0; k];
+    for (i, r) in range.enumerate() {
+        let w = if rows.weighted() { rows.sw[r] } else { 1.0 };
+        let sv: Vec<f64> = s.iter().map(|b| b.a[i] * b.b[i]).collect();
+        let f: f64 = sv.iter().zip(c).map(|(a, b)| a * b).sum();
+        let res = match loss {
+            Loss::Log => {
+                let y = rows.nl[r] * f;
+                let d = w * rows.nl[r] / (1.0 + y);
+                for (jj, si) in j.iter_mut().zip(&sv) {
+                    *jj = d * si;
+                }
+                w * (y.ln_1p() - rows.target[r])
+            }
+            Loss::Linear => {
+                for (jj, si) in j.iter_mut().zip(&sv) {
+                    *jj = w * si;
+                }
+                w * (f - rows.target[r])
+            }
+        };
+        cost += 0.5 * res * res;
+        for a in 0..k {
+            jtr[a] += j[a] * res;
+            for b in 0..k {
+                jtj[a * k + b] += j[a] * j[b];
+            }
+        }
+    }
+    (cost, jtj, jtr)
+}
+
+/// The weighted normal equations of the linear problem f_data ≈ Σ c_j s_j: the Gram matrix
+/// Σ w s_i s_j (row-major) and Σ (w f) s_i, for bases `s`, weights `w` and `wf` = w·f_data.
+pub(super) fn gram_sums(s: &[Basis], w: &[f64], wf: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let k = s.len();
+    let (mut g, mut h) = (vec![0.0; k * k], vec![0.0; k]);
+    for i in 0..w.len() {
+        let sv: Vec<f64> = s.iter().map(|b| b.a[i] * b.b[i]).collect();
+        for a in 0..k {
+            h[a] += wf[i] * sv[a];
+            for b in 0..k {
+                g[a * k + b] += w[i] * sv[a] * sv[b];
+            }
+        }
+    }
+    (g, h)
+}
+
+/// The linear coefficients that minimise ½ cᵀGc − hᵀc (the weighted linear least squares of
+/// [`gram_sums`]) with the held coefficients (`free` false) at their values in `c` and the
+/// free ones ≥ 0 ([`nnls`]).
+pub(super) fn linear_solve(g: &[f64], h: &[f64], c: &[f64], free: &[bool]) -> Vec<f64> {
+    let k = c.len();
+    // y = f − Σ_held c_j s_j: the right-hand side loses the held columns.
+    let h: Vec<f64> = (0..k)
+        .map(|i| {
+            h[i] - (0..k)
+                .filter(|&j| !free[j])
+                .map(|j| g[i * k + j] * c[j])
+                .sum::<f64>()
+        })
+        .collect();
+    let x = nnls(g, &h, free);
+    (0..k).map(|i| if free[i] { x[i] } else { c[i] }).collect()
+}
+
+/// Non-negative least squares from the normal equations: minimise ½ xᵀAx − bᵀx over x ≥ 0 (A
+/// k × k row-major, symmetric positive semi-definite), an unknown that is not `free` held at
+/// 0. The active-set method of Lawson & Hanson (1974, "Solving Least Squares Problems",
+/// ch. 23, algorithm NNLS), on the normal equations: unknowns enter the passive set by the
+/// largest gradient and leave it by interpolating back to feasibility. An unknown whose
+/// diagonal is 0 (a basis that vanishes on every row) stays 0.
+pub(super) fn nnls(a: &[f64], b: &[f64], free: &[bool]) -> Vec<f64> {
+    let k = b.len();
+    let mut x = vec![0.0; k];
+    let usable: Vec<bool> = (0..k).map(|i| free[i] && a[i * k + i] > 0.0).collect();
+    let diag: Vec<f64> = (0..k)
+        .map(|i| if usable[i] { a[i * k + i] } else { 1.0 })
+        .collect();
+    let mut passive = vec![false; k];
+    // The gradient test scale: a tolerance relative to the problem's own size.
+    let scale = (0..k)
+        .filter(|&i| usable[i])
+        .map(|i| b[i].abs() + a[i * k + i].sqrt())
+        .fold(0.0, f64::max);
+    let tol = 1e-12 * scale.max(1e-300);
+    // The solution of the equations restricted to the passive set (zero elsewhere).
+    let solve = |passive: &[bool]| {
+        let held: Vec<bool> = passive.iter().map(|p| !p).collect();
+        let neg: Vec<f64> = b.iter().map(|v| -v).collect();
+        lsq::damped_solve(a, &neg, &diag, 0.0, &held)
+    };
+    for _ in 0..3 * k + 1 {
+        // w = b − A x: the descent direction of each unknown.
+        let w: Vec<f64> = (0..k)
+            .map(|i| b[i] - (0..k).map(|j| a[i * k + j] * x[j]).sum::<f64>())
+            .collect();
+        let Some(j) = (0..k)
+            .filter(|&i| usable[i] && !passive[i] && w[i] > tol)
+            .max_by(|&p, &q| w[p].total_cmp(&w[q]))
+        else {
+            break;
+        };
+        passive[j] = true;
+        let mut progressed = false;
+        for _ in 0..k + 1 {
+            let Some(z) = solve(&passive) else {
+                break;
+            };
+            if (0..k).all(|i| !passive[i] || z[i] > 0.0) {
+                x = z;
+                progressed = true;
+                break;
+            }
+            // Step from x towards z until the first passive unknown reaches 0.
+            let alpha = (0..k)
+                .filter(|&i| passive[i] && z[i] <= 0.0)
+                .map(|i| x[i] / (x[i] - z[i]))
+                .fold(1.0, f64::min);
+            for i in 0..k {
+                x[i] += alpha * (z[i] - x[i]);
+                if passive[i] && x[i] <= 1e-15 * x[i].abs().max(1.0) {
+                    x[i] = 0.0;
+                    passive[i] = false;
+                }
+            }
+        }
+        if !progressed {
+            passive[j] = false;
+            break;
+        }
+    }
+    x.iter().map(|v| v.max(0.0)).collect()
 }
 
 /// Gauss–Newton steps on the linear coefficients at the grid points that are refined.
@@ -369,12 +495,12 @@ pub(super) const INIT_ROWS: usize = 500;
 pub(super) const CANDIDATES: usize = 4;
 
 /// Variable projection over a grid of the nonlinear parameters that spans each one's whole
-/// admissible range ([`crate::model::ParamSpec::grid`]): at each grid point the free ps and pd
-/// of each channel come from a weighted linear least-squares solve (weights that linearise
-/// the loss at the data), clipped to ≥ 0; each point is then scored on the *declared* loss at
-/// those (ps, pd), so a basin ranks by the cost the fit minimises, not by its linearisation.
-/// The grid's local minima (distinct basins) are returned best first, at most [`CANDIDATES`],
-/// as solver variables.
+/// admissible range ([`crate::model::ParamSpec::grid`]): at each grid point the free linear
+/// parameters of each channel (every lobe's ps, and pd) come from a weighted non-negative
+/// linear least-squares solve ([`nnls`]; weights that linearise the loss at the data); each
+/// point is then scored on the *declared* loss at those values, so a basin ranks by the cost
+/// the fit minimises, not by its linearisation. The grid's local minima (distinct basins) are
+/// returned best first, at most [`CANDIDATES`], as solver variables.
 pub(super) fn global_init(
     full: &BrdfProblem,
     specs: &[&ParamSpec],
@@ -383,11 +509,15 @@ pub(super) fn global_init(
     let p = full.subsample(INIT_ROWS);
     let nfree = p.transforms.len();
     let kind = opts.kind;
-    let names = kind.param_names(opts.dist);
-    let ips = kind.index_of(opts.dist, Role::Specular);
+    let model_specs = kind.params(opts.dist);
+    // The linear coefficients: each lobe's ps, then pd (as pd/π, its basis being 1).
+    let ips: Vec<usize> = (0..model_specs.len())
+        .filter(|&i| model_specs[i].role == Role::Specular)
+        .collect();
     let ipd = kind
         .index_of(opts.dist, Role::Diffuse)
         .expect("every model has pd");
+    let k = ips.len() + 1;
     let (nonlinear, dims, points) = grid_points(specs, nfree);
     let (fdata, wdata) = linearised_data(&p, opts.loss);
     let wf: Vec<f64> = wdata.iter().zip(&fdata).map(|(w, f)| w * f).collect();
@@ -398,18 +528,25 @@ pub(super) fn global_init(
             basis_free_sums(&wdata[rows.clone()], &fdata[rows])
         })
         .collect();
-    // Torrance–Sparrow on one channel with n and c free: every point's sums at once.
+    // Torrance–Sparrow on one channel with n and every shape parameter free: every point's
+    // sums at once.
+    let shapes = model_specs.iter().filter(|s| s.role == Role::Shape).count();
     let separable = (kind == ModelKind::TorranceSparrow
         && p.layout.len() == 1
-        && ips.is_some()
-        && nonlinear.len() == 2
+        && ips.len() == 1
+        && nonlinear.len() == 1 + shapes
         && specs[nonlinear[0].0].role == Role::Index
-        && specs[nonlinear[1].0].role == Role::Shape)
-        .then(|| {
-            let f = TsFactors::new(&p.rows, opts.dist, &nonlinear[0].1, &nonlinear[1].1);
-            let table = f.grid_sums(&wdata, &wf);
-            (f, table)
-        });
+        && nonlinear[1..]
+            .iter()
+            .all(|(k, _)| specs[*k].role == Role::Shape))
+    .then(|| {
+        // The shape grid points, row-major as in `points` (n is the slowest axis).
+        let per_n = points.len() / nonlinear[0].1.len();
+        let cs: Vec<Vec<f64>> = points[..per_n].iter().map(|pt| pt[1..].to_vec()).collect();
+        let f = TsFactors::new(&p.rows, opts.dist, &nonlinear[0].1, &cs);
+        let table = f.grid_sums(&wdata, &wf);
+        (f, table)
+    });
     let (ones, zeros) = (vec![1.0; p.rows.len()], vec![0.0; p.rows.len()]);
     let score_point = |index: usize, steps: usize| {
         let pt = &points[index];
@@ -422,76 +559,111 @@ pub(super) fn global_init(
         for c in 0..p.layout.len() {
             let slots = p.layout[c];
             let rows = p.starts[c]..p.starts[c + 1];
-            // Model with ps = 1, pd = 0 gives the specular basis; pd's basis is 1/π.
+            let n = rows.len();
             let mut vals = [0.0; crate::model::MAX_PARAMS];
-            for j in 0..names.len() {
+            for j in 0..model_specs.len() {
                 vals[j] = match slots[j] {
                     Slot::Fixed(v) => v,
                     Slot::Free(k) => theta[k],
                 };
             }
-            if let Some(i) = ips {
-                vals[i] = 1.0;
-            }
-            vals[ipd] = 0.0;
-            let spec_model = full.template.with_params(&vals);
-            let fixed_ps = ips.and_then(|i| match slots[i] {
-                Slot::Fixed(v) => Some(v),
-                _ => None,
-            });
-            let fixed_pd = match slots[ipd] {
-                Slot::Fixed(v) => Some(v),
-                _ => None,
-            };
-            let owned: Vec<f64>;
-            let basis = match (&separable, ips) {
-                (Some((f, _)), _) => f.basis(index),
-                (None, Some(_)) => {
-                    owned = problem::brdf_values(&spec_model, &p.rows, rows.clone());
-                    Basis {
-                        a: &owned,
-                        b: &ones[..rows.len()],
-                    }
+            // Each coefficient's value if held, and whether it is free.
+            let mut held = vec![0.0; k];
+            let mut free = vec![false; k];
+            for (j, &i) in ips.iter().chain([&ipd]).enumerate() {
+                match slots[i] {
+                    Slot::Fixed(v) => held[j] = v,
+                    Slot::Free(_) => free[j] = true,
                 }
-                (None, None) => Basis {
-                    a: &zeros[..rows.len()],
-                    b: &ones[..rows.len()],
-                },
-            };
-            let raw = match &separable {
-                Some((_, table)) => table[index],
-                // Here the basis is its first factor (the second is ones).
-                None => basis_sums(basis.a, &wdata[rows.clone()], &wf[rows.clone()]),
-            };
-            let [a11, a12, a22, b1, b2, _] = combine_sums(
-                raw,
-                free_sums[c],
-                (fixed_ps.unwrap_or(0.0), fixed_pd.unwrap_or(0.0)),
-            );
-            let free_ps = ips.is_some() && fixed_ps.is_none();
-            let free_pd = fixed_pd.is_none();
-            let (ps, pd) = nonnegative_2x2([a11, a12, a22, b1, b2], (free_ps, free_pd));
-            // The declared loss, minimised over (ps, pd) from the linear solve.
-            let pi = std::f64::consts::FRAC_1_PI;
-            let (fps, fpd) = (fixed_ps.unwrap_or(0.0), fixed_pd.unwrap_or(0.0) * pi);
-            let (cost, (a, b)) = refine_linear(
-                &p.rows,
-                rows,
-                basis,
-                (ps + fps, pd * pi + fpd),
-                (free_ps.then_some(fps), free_pd.then_some(fpd)),
-                opts.loss,
-                steps,
-            );
-            score += cost;
-            let (ps, pd) = (a - fps, (b - fpd) / pi);
-            if let (Some(i), true) = (ips, free_ps)
-                && let Slot::Free(k) = slots[i]
-            {
-                theta[k] = ps;
+                vals[i] = 0.0;
             }
-            if free_pd && let Slot::Free(k) = slots[ipd] {
-                theta[k] = pd;
+            held[k - 1] *= std::f64::consts::FRAC_1_PI;
+            // The specular basis of lobe i: the model with that ps = 1 and every other linear
+            // parameter 0.
+            let lobe = |i: usize| {
+                let mut v = vals;
+                v[i] = 1.0;
+                problem::brdf_values(&full.template.with_params(&v), &p.rows, rows.clone())
+            };
+            let (cost, x) = if ips.len() <= 1 {
+                // One lobe (or none): the lane kernels, coefficients (ps, pd/π).
+                let owned: Vec<f64>;
+                let basis = match (&separable, ips.first()) {
+                    (Some((f, _)), _) => f.basis(index),
+                    (None, Some(&i)) => {
+                        owned = lobe(i);
+                        Basis {
+                            a: &owned,
+                            b: &ones[..n],
+                        }
+                    }
+                    (None, None) => Basis {
+                        a: &zeros[..n],
+                        b: &ones[..n],
+                    },
+                };
+                let [ss, s1, sf] = match &separable {
+                    Some((_, table)) => table[index],
+                    // Here the basis is its first factor (the second is ones).
+                    None => basis_sums(basis.a, &wdata[rows.clone()], &wf[rows.clone()]),
+                };
+                let [w1, f1, _] = free_sums[c];
+                let (start, free2) = if ips.is_empty() {
+                    ([0.0, held[0]], [false, free[0]])
+                } else {
+                    ([held[0], held[1]], [free[0], free[1]])
+                };
+                let x0 = linear_solve(&[ss, s1, s1, w1], &[sf, f1], &start, &free2);
+                let pass = |x: &[f64]| {
+                    let (cost, jtj, jtr) =
+                        linear_pass(&p.rows, rows.clone(), basis, (x[0], x[1]), opts.loss);
+                    (cost, vec![jtj[0], jtj[1], jtj[1], jtj[2]], jtr.to_vec())
+                };
+                let cost = |x: &[f64]| match opts.loss {
+                    Loss::Log => {
+                        let r = rows.clone();
+                        linear_cost_log(
+                            &p.rows.nl[r.clone()],
+                            &p.rows.target[r.clone()],
+                            weights(&p.rows, r),
+                            basis,
+                            (x[0], x[1]),
+                        )
+                    }
+                    Loss::Linear => pass(x).0,
+                };
+                let (cost, x) = refine_linear(&x0, &free2, opts.loss, steps, pass, cost);
+                let x = if ips.is_empty() { vec![x[1]] } else { x };
+                (cost, x)
+            } else {
+                // Several lobes: a basis each, and a row loop.
+                let owned: Vec<Vec<f64>> = ips.iter().map(|&i| lobe(i)).collect();
+                let mut bases: Vec<Basis> = owned
+                    .iter()
+                    .map(|s| Basis {
+                        a: s,
+                        b: &ones[..n],
+                    })
+                    .collect();
+                bases.push(Basis {
+                    a: &ones[..n],
+                    b: &ones[..n],
+                });
+                let (g, h) = gram_sums(&bases, &wdata[rows.clone()], &wf[rows.clone()]);
+                let x0 = linear_solve(&g, &h, &held, &free);
+                let pass =
+                    |x: &[f64]| linear_pass_many(&p.rows, rows.clone(), &bases, x, opts.loss);
+                refine_linear(&x0, &free, opts.loss, steps, pass, |x| pass(x).0)
+            };
+            score += cost;
+            for (j, &i) in ips.iter().chain([&ipd]).enumerate() {
+                if let Slot::Free(v) = slots[i] {
+                    theta[v] = if j == k - 1 {
+                        x[j] * std::f64::consts::PI
+                    } else {
+                        x[j]
+                    };
+                }
             }
         }
         let x: Vec<f64> = (0..nfree)
@@ -535,8 +707,9 @@ pub(super) fn global_init(
 }
 
 /// The starting grid of the nonlinear free variables: which variables have a grid, the grid
-/// sizes, and every grid point (row-major). Grids are thinned while the product of their
-/// sizes exceeds 4,096 (a joint fit with per-channel shape parameters).
+/// sizes, and every grid point (row-major). While the product of their sizes exceeds 4,096
+/// (several shape parameters, or a joint fit with per-channel ones) the longest grid (the
+/// first of equals) keeps every other value.
 pub(super) fn grid_points(specs: &[&ParamSpec], nfree: usize) -> GridPoints {
     let mut nonlinear: Vec<(usize, Vec<f64>)> = (0..nfree)
         .filter_map(|k| {
@@ -544,10 +717,20 @@ pub(super) fn grid_points(specs: &[&ParamSpec], nfree: usize) -> GridPoints {
             (!g.is_empty()).then_some((k, g))
         })
         .collect();
+    // The longest grid is halved first, so two shapes and an index (19 × 19 × 17) keep
+    // 10 × 19 × 17 points rather than every grid halved (10 × 10 × 9).
     while nonlinear.iter().map(|(_, g)| g.len()).product::<usize>() > 4096 {
-        for (_, g) in nonlinear.iter_mut() {
-            *g = g.iter().step_by(2).copied().collect();
-        }
+        let longest = (0..nonlinear.len())
+            .max_by(|&a, &b| {
+                nonlinear[a]
+                    .1
+                    .len()
+                    .cmp(&nonlinear[b].1.len())
+                    .then(b.cmp(&a))
+            })
+            .expect("a product over 4,096 has a grid");
+        let g = &mut nonlinear[longest].1;
+        *g = g.iter().step_by(2).copied().collect();
     }
     let dims: Vec<usize> = nonlinear.iter().map(|(_, g)| g.len()).collect();
     let mut points: Vec<Vec<f64>> = vec![vec![]];
@@ -587,35 +770,6 @@ pub(super) fn linearised_data(p: &BrdfProblem, loss: Loss) -> (Vec<f64>, Vec<f64
             (fd, w)
         })
         .unzip()
-}
-
-/// Non-negative least squares with two unknowns from the normal equations
-/// [a11 a12; a12 a22] x = [b1; b2]: the unconstrained solution if it is non-negative, else
-/// the better of the two faces. An unknown that is not free stays 0.
-pub(super) fn nonnegative_2x2([a11, a12, a22, b1, b2]: [f64; 5], free: (bool, bool)) -> (f64, f64) {
-    let solve1 = |a: f64, b: f64| if a > 0.0 { (b / a).max(0.0) } else { 0.0 };
-    match free {
-        (true, true) => {
-            let det = a11 * a22 - a12 * a12;
-            let (x1, x2) = if det > 1e-300 {
-                ((b1 * a22 - b2 * a12) / det, (a11 * b2 - a12 * b1) / det)
-            } else {
-                (-1.0, -1.0)
-            };
-            if x1 >= 0.0 && x2 >= 0.0 && x1.is_finite() && x2.is_finite() {
-                return (x1, x2);
-            }
-            let c1 = (solve1(a11, b1), 0.0);
-            let c2 = (0.0, solve1(a22, b2));
-            let q = |(u, v): (f64, f64)| {
-                a11 * u * u + 2.0 * a12 * u * v + a22 * v * v - 2.0 * (b1 * u + b2 * v)
-            };
-            if q(c1) <= q(c2) { c1 } else { c2 }
-        }
-        (true, false) => (solve1(a11, b1), 0.0),
-        (false, true) => (0.0, solve1(a22, b2)),
-        (false, false) => (0.0, 0.0),
-    }
 }
 
 /// The local minima of a score tabulated on a grid (row-major over `dims`; a point is a
@@ -668,18 +822,10 @@ pub(super) fn grid_minima(scores: &[f64], dims: &[usize], limit: usize) -> Vec<u
 mod tests {
     use super::*;
 
-    /// The weighted sums of the two-parameter linear problem y ≈ ps s + pd/π of the global
-    /// initialisation, y = f_data − ps_fixed s − pd_fixed/π: [Σws², Σws/π, Σw/π², Σwsy, Σwy/π,
-    /// Σwy²] of a basis s; `wf` holds w·f_data and `k` the sums free of s ([`basis_free_sums`]).
-    fn linear_sums(s: &[f64], w: &[f64], wf: &[f64], k: [f64; 3], fixed: (f64, f64)) -> [f64; 6] {
-        combine_sums(basis_sums(s, w, wf), k, fixed)
-    }
-
     /// The lane sums of the global initialisation equal plain sums written out here, for
-    /// lengths with and without a partial last block and with fixed ps and pd.
+    /// lengths with and without a partial last block.
     #[test]
-    fn linear_sums_match_plain_sums() {
-        let d = std::f64::consts::FRAC_1_PI;
+    fn basis_sums_match_plain_sums() {
         for m in [0, 1, 7, 8, 9, 500, 1003] {
             let s: Vec<f64> = (0..m)
                 .map(|i| (0.37 * i as f64).sin().abs() * 3.0)
@@ -688,27 +834,147 @@ mod tests {
                 .map(|i| 0.1 + (0.11 * i as f64).cos().powi(2))
                 .collect();
             let w: Vec<f64> = (0..m).map(|i| 1.0 / (1.0 + i as f64 % 5.0)).collect();
-            for (ps, pd) in [(0.0, 0.0), (0.4, 0.0), (0.0, 0.6), (0.4, 0.6)] {
-                let mut want = [0.0; 6];
-                for i in 0..m {
-                    let y = fd[i] - ps * s[i] - pd * d;
-                    let t = [s[i] * s[i], s[i] * d, d * d, s[i] * y, d * y, y * y];
-                    for k in 0..6 {
-                        want[k] += w[i] * t[k];
+            let mut want = [0.0; 6];
+            for i in 0..m {
+                let t = [s[i] * s[i], s[i], fd[i] * s[i], 1.0, fd[i], fd[i] * fd[i]];
+                for k in 0..6 {
+                    want[k] += w[i] * t[k];
+                }
+            }
+            let wf: Vec<f64> = w.iter().zip(&fd).map(|(w, f)| w * f).collect();
+            let a = basis_sums(&s, &w, &wf);
+            let b = basis_free_sums(&w, &fd);
+            let got = [a[0], a[1], a[2], b[0], b[1], b[2]];
+            for k in 0..6 {
+                let tol = 1e-13 * want[k].abs().max(1e-300);
+                assert!(
+                    (got[k] - want[k]).abs() <= tol,
+                    "m={m} k={k}: {got:?} vs {want:?}"
+                );
+            }
+        }
+    }
+
+    /// ½ xᵀAx − bᵀx.
+    fn quadratic(a: &[f64], b: &[f64], x: &[f64]) -> f64 {
+        let k = b.len();
+        (0..k)
+            .map(|i| 0.5 * x[i] * (0..k).map(|j| a[i * k + j] * x[j]).sum::<f64>() - b[i] * x[i])
+            .sum()
+    }
+
+    /// The brute-force answer of a non-negative quadratic problem: the unconstrained minimum
+    /// on every subset of the free unknowns (Gaussian elimination written here), the best one
+    /// that is ≥ 0. The convex problem's minimum is the unconstrained one on its support.
+    fn brute_force(a: &[f64], b: &[f64], free: &[bool]) -> Vec<f64> {
+        let k = b.len();
+        let mut best = (0.0, vec![0.0; k]);
+        for mask in 0..1usize << k {
+            let set: Vec<usize> = (0..k).filter(|&i| mask >> i & 1 == 1).collect();
+            if set.iter().any(|&i| !free[i]) || set.is_empty() {
+                continue;
+            }
+            let n = set.len();
+            let mut m: Vec<Vec<f64>> = set
+                .iter()
+                .map(|&i| {
+                    let mut row: Vec<f64> = set.iter().map(|&j| a[i * k + j]).collect();
+                    row.push(b[i]);
+                    row
+                })
+                .collect();
+            for c in 0..n {
+                let piv = (c..n)
+                    .max_by(|&p, &q| m[p][c].abs().total_cmp(&m[q][c].abs()))
+                    .unwrap();
+                m.swap(c, piv);
+                for r in 0..n {
+                    if r != c {
+                        let f = m[r][c] / m[c][c];
+                        for j in c..=n {
+                            m[r][j] -= f * m[c][j];
+                        }
                     }
                 }
-                let wf: Vec<f64> = w.iter().zip(&fd).map(|(w, f)| w * f).collect();
-                let k = basis_free_sums(&w, &fd);
-                let got = linear_sums(&s, &w, &wf, k, (ps, pd));
-                for k in 0..6 {
-                    let tol = 1e-13 * want[k].abs().max(1e-300);
-                    assert!(
-                        (got[k] - want[k]).abs() <= tol,
-                        "m={m} k={k}: {got:?} vs {want:?}"
-                    );
+            }
+            let mut x = vec![0.0; k];
+            for (r, &i) in set.iter().enumerate() {
+                x[i] = m[r][n] / m[r][r];
+            }
+            if x.iter().all(|&v| v >= 0.0) {
+                let q = quadratic(a, b, &x);
+                if q < best.0 {
+                    best = (q, x);
                 }
             }
         }
+        best.1
+    }
+
+    /// Lawson–Hanson NNLS agrees with the brute force over every subset on 400 random
+    /// problems of 1–4 unknowns (Gram matrices of random bases, some unknowns held).
+    #[test]
+    fn nnls_matches_brute_force() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(22);
+        let mut bound = 0;
+        for case in 0..400 {
+            let k = 1 + case % 4;
+            let rows = 6;
+            let s: Vec<f64> = (0..rows * k).map(|_| rng.random::<f64>() - 0.3).collect();
+            let y: Vec<f64> = (0..rows).map(|_| rng.random::<f64>() - 0.5).collect();
+            let a: Vec<f64> = (0..k * k)
+                .map(|ij| {
+                    (0..rows)
+                        .map(|r| s[r * k + ij / k] * s[r * k + ij % k])
+                        .sum()
+                })
+                .collect();
+            let b: Vec<f64> = (0..k)
+                .map(|i| (0..rows).map(|r| s[r * k + i] * y[r]).sum())
+                .collect();
+            let free: Vec<bool> = (0..k).map(|i| case % 7 != i).collect();
+            let got = nnls(&a, &b, &free);
+            let want = brute_force(&a, &b, &free);
+            bound += got.iter().filter(|&&v| v == 0.0).count();
+            let (qg, qw) = (quadratic(&a, &b, &got), quadratic(&a, &b, &want));
+            assert!(got.iter().all(|&v| v >= 0.0), "case {case}: {got:?}");
+            for i in 0..k {
+                assert!(free[i] || got[i] == 0.0, "case {case}: held {i} moved");
+            }
+            assert!(
+                (qg - qw).abs() <= 1e-10 * qw.abs().max(1e-12),
+                "case {case}: nnls {got:?} ({qg}) vs brute force {want:?} ({qw})"
+            );
+        }
+        assert!(bound > 100, "the cases must reach the bounds: {bound}");
+    }
+
+    /// Hand-worked: with A = [[2, 1], [1, 2]] and b = (3, 0) the unconstrained solution is
+    /// (2, −1), so NNLS holds the second at 0 and gives 3/2; held at 1, the first's equation
+    /// 2x + 1 = 3 gives x = 1; a vanishing basis (A₂₂ = 0) stays 0.
+    #[test]
+    fn nnls_and_held_coefficients_by_hand() {
+        let a = [2.0, 1.0, 1.0, 2.0];
+        let close = |x: &[f64], want: [f64; 2]| (0..2).all(|i| (x[i] - want[i]).abs() < 1e-14);
+        assert!(close(&nnls(&a, &[3.0, 0.0], &[true, true]), [1.5, 0.0]));
+        let both = nnls(&a, &[3.0, 3.0], &[true, true]);
+        assert!((both[0] - 1.0).abs() < 1e-14 && (both[1] - 1.0).abs() < 1e-14);
+        let x = linear_solve(&a, &[3.0, 0.0], &[0.0, 1.0], &[true, false]);
+        assert!((x[0] - 1.0).abs() < 1e-14 && x[1] == 1.0, "{x:?}");
+        let x = nnls(&[2.0, 0.0, 0.0, 0.0], &[4.0, 1.0], &[true, true]);
+        assert!(close(&x, [2.0, 0.0]), "{x:?}");
+    }
+
+    /// Two shape parameters and an index (19 × 19 × 17 > 4,096 points): the longest grid
+    /// (the first of equals) is halved once, to 10 × 19 × 17.
+    #[test]
+    fn two_shapes_and_an_index_keep_most_of_the_grid() {
+        let specs = ModelKind::TorranceSparrow.params(Distribution::D3);
+        let (n, c3) = (&specs[0], &specs[1]);
+        let (_, dims, points) = grid_points(&[c3, c3, n], 3);
+        assert_eq!(dims, vec![10, 19, 17]);
+        assert_eq!(points.len(), 10 * 19 * 17);
     }
 
     /// The tabulated sums of Torrance–Sparrow's separable basis equal, point by point, the
@@ -739,16 +1005,28 @@ mod tests {
         let m = rows.len();
         let w: Vec<f64> = (0..m).map(|i| 0.5 + (i % 7) as f64 / 7.0).collect();
         let wf: Vec<f64> = (0..m).map(|i| w[i] * (0.2 + (i % 5) as f64)).collect();
-        for dist in [Distribution::D3, Distribution::D1] {
+        for dist in [Distribution::D3, Distribution::D1, Distribution::Abc] {
             let specs = ModelKind::TorranceSparrow.params(dist);
-            let (ns, cs) = (specs[0].grid_values(), specs[1].grid_values());
+            let ns = specs[0].grid_values();
+            // The shape points: c for D1–D3, every (b, c) of the two grids for ABC.
+            let mut cs: Vec<Vec<f64>> = vec![vec![]];
+            for s in specs.iter().filter(|s| s.role == crate::model::Role::Shape) {
+                cs = cs
+                    .iter()
+                    .flat_map(|pt| {
+                        s.grid_values()
+                            .into_iter()
+                            .map(move |v| [&pt[..], &[v]].concat())
+                    })
+                    .collect();
+            }
             let factors = TsFactors::new(&rows, dist, &ns, &cs);
             let table = factors.grid_sums(&w, &wf);
             assert_eq!(table.len(), ns.len() * cs.len());
             for (i, n) in ns.iter().enumerate() {
                 for (j, c) in cs.iter().enumerate() {
-                    let model =
-                        Model::new(ModelKind::TorranceSparrow, dist, &[*n, *c, 1.0, 0.0]).unwrap();
+                    let params = [&[*n][..], c, &[1.0, 0.0]].concat();
+                    let model = Model::new(ModelKind::TorranceSparrow, dist, &params).unwrap();
                     let basis = problem::brdf_values(&model, &rows, 0..m);
                     let want = basis_sums(&basis, &w, &wf);
                     let index = i * cs.len() + j;
@@ -765,7 +1043,7 @@ mod tests {
                         let tol = 1e-10 * want[k].abs().max(1e-300);
                         assert!(
                             (got[k] - want[k]).abs() <= tol,
-                            "{dist:?} n={n} c={c} sum {k}: {} vs {}",
+                            "{dist:?} n={n} c={c:?} sum {k}: {} vs {}",
                             got[k],
                             want[k]
                         );

@@ -25,8 +25,8 @@ mod torrance_sparrow;
 
 pub use phong::{fast_phong_pow, fast_phong_pow_da};
 pub use torrance_sparrow::{
-    Distribution, d3_textured, equal_beta_phong, f0_from_n, fresnel, fresnel_dn, fresnel_trig,
-    n_from_f0,
+    Distribution, abc_half_width, d3_textured, equal_beta_phong, f0_from_n, fresnel, fresnel_dn,
+    fresnel_trig, n_from_f0,
 };
 
 use std::f64::consts::PI;
