@@ -202,7 +202,12 @@ impl ModelKind {
     /// The facet distributions the model takes (`[D3]`, a placeholder, for models without one).
     pub fn distributions(self) -> &'static [Distribution] {
         match self {
-            ModelKind::TorranceSparrow => &[Distribution::D1, Distribution::D2, Distribution::D3],
+            ModelKind::TorranceSparrow => &[
+                Distribution::D1,
+                Distribution::D2,
+                Distribution::D3,
+                Distribution::Abc,
+            ],
             _ => &[Distribution::D3],
         }
     }
@@ -243,11 +248,14 @@ impl ModelKind {
     }
 }
 
-/// Every (model, distribution) pair `--model all` compares, simplest first.
+/// Every (model, distribution) pair `--model all` compares, simplest first. Torrance–Sparrow
+/// with ABC is fitted with `--distribution abc` but not yet compared here (the corpus test's
+/// 64 random starts do not cover it yet).
 pub fn catalogue() -> Vec<(ModelKind, Distribution)> {
     ModelKind::ALL
         .iter()
         .flat_map(|&k| k.distributions().iter().map(move |&d| (k, d)))
+        .filter(|&(_, d)| d != Distribution::Abc)
         .collect()
 }
 
