@@ -351,7 +351,13 @@ pub fn normal_equations<P: Problem>(p: &P, x: &[f64], robust: Robust) -> Option<
 
 /// Solve (A + μ diag(D)) h = −g by Cholesky with Jacobi scaling on the variables not in the
 /// active set (whose step is 0); `None` if not positive definite.
-fn damped_solve(a: &[f64], g: &[f64], d: &[f64], mu: f64, active: &[bool]) -> Option<Vec<f64>> {
+pub(crate) fn damped_solve(
+    a: &[f64],
+    g: &[f64],
+    d: &[f64],
+    mu: f64,
+    active: &[bool],
+) -> Option<Vec<f64>> {
     let n = g.len();
     // Scale by s_i = 1/√d_i so the scaled matrix has a unit-ish diagonal: better conditioned.
     let s: Vec<f64> = d.iter().map(|v| 1.0 / v.sqrt()).collect();

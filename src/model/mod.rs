@@ -26,8 +26,8 @@ mod torrance_sparrow;
 
 pub use phong::{fast_phong_pow, fast_phong_pow_da};
 pub use torrance_sparrow::{
-    Distribution, d3_textured, equal_beta_phong, f0_from_n, fresnel, fresnel_dn, fresnel_trig,
-    n_from_f0,
+    Distribution, abc_half_width, d3_textured, equal_beta_phong, f0_from_n, fresnel, fresnel_dn,
+    fresnel_trig, n_from_f0,
 };
 
 use std::f64::consts::PI;
@@ -209,7 +209,12 @@ impl ModelKind {
     /// The facet distributions the model takes (`[D3]`, a placeholder, for models without one).
     pub fn distributions(self) -> &'static [Distribution] {
         match self {
-            ModelKind::TorranceSparrow => &[Distribution::D1, Distribution::D2, Distribution::D3],
+            ModelKind::TorranceSparrow => &[
+                Distribution::D1,
+                Distribution::D2,
+                Distribution::D3,
+                Distribution::Abc,
+            ],
             _ => &[Distribution::D3],
         }
     }
@@ -251,11 +256,14 @@ impl ModelKind {
     }
 }
 
-/// Every (model, distribution) pair `--model all` compares, simplest first.
+/// Every (model, distribution) pair `--model all` compares, simplest first. Torrance–Sparrow
+/// with ABC is fitted with `--distribution abc` but not yet compared here (the corpus test's
+/// 64 random starts do not cover it yet).
 pub fn catalogue() -> Vec<(ModelKind, Distribution)> {
     ModelKind::ALL
         .iter()
         .flat_map(|&k| k.distributions().iter().map(move |&d| (k, d)))
+        .filter(|&(_, d)| d != Distribution::Abc)
         .collect()
 }
 

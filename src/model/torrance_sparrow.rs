@@ -1,6 +1,6 @@
 //! Blinn's Torrance–Sparrow model (Blinn 1977, "Torrance-Sparrow model"):
-//! i = pd N·L + ps D G F / (N·E), with the facet distributions D1–D3, Blinn's V-groove G and
-//! the exact unpolarized Fresnel reflectance F.
+//! i = pd N·L + ps D G F / (N·E), with the facet distributions D1–D3 or Löw et al.'s ABC lobe,
+//! Blinn's V-groove G and the exact unpolarized Fresnel reflectance F.
 
 use super::{Geometry, Grid, Material, Model, PD, PS, ParamSpec, Role, Scale};
 use std::f64::consts::FRAC_1_PI;
@@ -51,29 +51,75 @@ pub(crate) const C3: ParamSpec = ParamSpec {
     slider: (0.001, 1.0),
 };
 
-/// The parameters: n, the distribution's shape parameter, ps, pd.
+/// ABC's b: the lobe's inverse width, D = (1 + b (1 − cos θh))^(−c) (Löw et al. 2012, eq. 6's
+/// S(f) = A/(1 + B f)^C with f = 1 − cos θh, A = 1 so D(0) = 1 like D1–D3).
+pub(crate) const B: ParamSpec = ParamSpec {
+    name: "b",
+    role: Role::Shape,
+    meaning: "inverse width of the ABC facet distribution (Löw et al. 2012's B)",
+    lo: 1e-3,
+    hi: 1e9,
+    scale: Scale::Log { offset: 0.0 },
+    // Lobe half-widths 0.05°–70° at c = 2 (where D(β) = ½ at b (1 − cos β) = √2 − 1); another
+    // c shifts them by √((2^(1/c) − 1)/(√2 − 1)), 0.68–4.7× over the grid of c below.
+    grid: Grid::HalfWidth(Distribution::Abc),
+    start: 100.0,
+    random: (1.0, 1e5),
+    absurd_above: f64::INFINITY,
+    slider: (0.1, 1e4),
+};
+
+/// ABC's c: the exponent of the lobe's tail (c = 2 is close to D3; smaller is a heavier tail).
+pub(crate) const C_ABC: ParamSpec = ParamSpec {
+    name: "c",
+    role: Role::Shape,
+    meaning: "tail exponent of the ABC facet distribution (Löw et al. 2012's C; 2 ≈ D3)",
+    lo: 0.05,
+    hi: 50.0,
+    scale: Scale::Log { offset: 0.0 },
+    grid: Grid::Values(&[0.3, 0.5, 0.8, 1.2, 1.6, 2.0, 2.8, 4.0]),
+    start: 1.5,
+    random: (0.3, 4.0),
+    absurd_above: f64::INFINITY,
+    slider: (0.1, 4.0),
+};
+
+/// The parameters: n, the distribution's shape parameter(s), ps, pd.
 pub(super) fn params(dist: Distribution) -> &'static [ParamSpec] {
     match dist {
         Distribution::D1 => &[N, super::phong::C1, PS, PD],
         Distribution::D2 => &[N, C2, PS, PD],
         Distribution::D3 => &[N, C3, PS, PD],
+        Distribution::Abc => &[N, B, C_ABC, PS, PD],
     }
 }
 
 /// GGX α of the distribution: c3 for D3 (D3 = π c3² D_GGX); the Beckmann-matched
 /// α = √(2/(c1 + 2)) for the cosine power D1 (Walter et al. 2007); √2/c2 for the Gaussian D2
 /// (its slope width).
+/// (its slope width); for ABC the c3 of D3 with the same half-width.
 fn alpha(m: &Model) -> f64 {
     match m.dist {
         Distribution::D3 => m.p[1],
         Distribution::D2 => std::f64::consts::SQRT_2 / m.p[1],
         Distribution::D1 => super::phong::alpha_of_power(m.p[1]),
+        Distribution::Abc => Distribution::D3
+            .param_from_beta(abc_half_width(m.p[1], m.p[2]))
+            .clamp(1e-5, 1.0),
     }
+}
+
+/// The half-angle β (radians) where ABC's D = (1 + b (1 − cos β))^(−c) falls to ½:
+/// cos β = 1 − (2^(1/c) − 1)/b (π/2 where that is below 0).
+pub fn abc_half_width(b: f64, c: f64) -> f64 {
+    (1.0 - (2f64.powf(1.0 / c) - 1.0) / b)
+        .clamp(0.0, 1.0)
+        .acos()
 }
 
 /// A GGX plastic of index n, or aluminium when F0 > 0.5.
 pub(super) fn material(m: &Model) -> Material {
-    super::blinn_material(Some(alpha(m)), Some(m.p[0]), m.p[3])
+    super::blinn_material(Some(alpha(m)), Some(m.p[0]), m.pd())
 }
 
 /// D G F with the distribution's D, Blinn's G and the exact Fresnel F.
@@ -82,6 +128,7 @@ pub(super) fn glsl(m: &Model) -> String {
         Distribution::D1 => "pow(NdotH, c1)",
         Distribution::D2 => "exp(-pow(acos(min(NdotH, 1.0)) * c2, 2.0))",
         Distribution::D3 => "pow(c3 * c3 / (NdotH * NdotH * (c3 * c3 - 1.0) + 1.0), 2.0)",
+        Distribution::Abc => "pow(1.0 + b * (1.0 - NdotH), -c)",
     };
     format!(
         "    vec3 H = normalize(L + V);\n    float NdotH = dot(N, H);\n    float EdotH = dot(V, H);\n    float D = {d};\n    float G = min(1.0, min(2.0 * NdotH * NdotV / EdotH, 2.0 * NdotH * NdotL / EdotH));\n    float c = EdotH;\n    float g = sqrt(n * n + c * c - 1.0);\n    float F = 0.5 * pow((g - c) / (g + c), 2.0) * (1.0 + pow((c * (g + c) - 1.0) / (c * (g - c) + 1.0), 2.0));\n    return vec3(pd / PI + ps * D * G * F / (PI * NdotL * NdotV));"
@@ -91,6 +138,9 @@ pub(super) fn glsl(m: &Model) -> String {
 /// f_r = pd/π + ps D F G/(π N·L N·E) and its gradient.
 #[inline]
 pub(super) fn brdf_grad(m: &Model, g: &Geometry, grad: &mut [f64]) -> f64 {
+    if m.dist == Distribution::Abc {
+        return abc_brdf_grad(m, g, grad);
+    }
     let (n, c, ps, pd) = (m.p[0], m.p[1], m.p[2], m.p[3]);
     let (d, dd) = m.dist.eval_dc(g.nh, c);
     let (f, df) = fresnel_dn(n, g.eh);
@@ -100,6 +150,26 @@ pub(super) fn brdf_grad(m: &Model, g: &Geometry, grad: &mut [f64]) -> f64 {
     grad[2] = d * f * w;
     grad[3] = FRAC_1_PI;
     pd * FRAC_1_PI + ps * d * f * w
+}
+
+/// [`brdf_grad`] with ABC's D = (1 + b (1 − cos θh))^(−c) (Löw et al. 2012, eq. 6 with
+/// A = 1): parameters (n, b, c, ps, pd); ∂D/∂b = −c (1 − cos θh) D/(1 + b (1 − cos θh)),
+/// ∂D/∂c = −ln(1 + b (1 − cos θh)) D.
+fn abc_brdf_grad(m: &Model, g: &Geometry, grad: &mut [f64]) -> f64 {
+    let (n, b, c, ps, pd) = (m.p[0], m.p[1], m.p[2], m.p[3], m.p[4]);
+    let x = 1.0 - g.nh.clamp(0.0, 1.0);
+    let u = 1.0 + b * x;
+    let lu = u.ln();
+    let d = (-c * lu).exp();
+    let (f, df) = fresnel_dn(n, g.eh);
+    let w = g.g_ne * FRAC_1_PI / g.nl;
+    let s = ps * f * w;
+    grad[0] = ps * d * df * w;
+    grad[1] = -s * c * x * d / u;
+    grad[2] = -s * lu * d;
+    grad[3] = d * f * w;
+    grad[4] = FRAC_1_PI;
+    pd * FRAC_1_PI + s * d
 }
 
 /// Exact unpolarized Fresnel reflectance, Blinn's compact form with the factor ½:
@@ -169,7 +239,8 @@ pub fn n_from_f0(f0: f64) -> f64 {
     (1.0 + s) / (1.0 - s)
 }
 
-/// Micro-facet distribution of Blinn 1977 ("Facet distribution functions"), each with peak 1.
+/// Micro-facet distribution of Blinn 1977 ("Facet distribution functions"), or Löw et al.
+/// 2012's ABC lobe in the same form; each with peak 1.
 #[derive(
     Clone,
     Copy,
@@ -190,33 +261,52 @@ pub enum Distribution {
     /// D3 = (c3² / (cos²α (c3² − 1) + 1))² (Trowbridge–Reitz; GGX with α = c3).
     #[default]
     D3,
+    /// ABC = (1 + b (1 − cos α))^(−c) (Löw, Kronander, Ynnerman & Unger 2012, "BRDF models for
+    /// accurate and efficient rendering of glossy surfaces", ACM TOG 31(1), eq. 6 with A = 1);
+    /// two shape parameters, b and c.
+    Abc,
 }
 
 impl Distribution {
-    /// Name of the distribution's shape parameter: `c1`, `c2` or `c3`.
+    /// Name of the distribution's (first) shape parameter: `c1`, `c2`, `c3` or `b`.
     pub fn param_name(self) -> &'static str {
         match self {
             Distribution::D1 => "c1",
             Distribution::D2 => "c2",
             Distribution::D3 => "c3",
+            Distribution::Abc => "b",
         }
     }
 
-    /// Lower-case name (`d1`, `d2`, `d3`).
+    /// Lower-case name (`d1`, `d2`, `d3`, `abc`).
     pub fn name(self) -> &'static str {
         match self {
             Distribution::D1 => "d1",
             Distribution::D2 => "d2",
             Distribution::D3 => "d3",
+            Distribution::Abc => "abc",
         }
     }
 
-    /// Parse `d1`, `d2` or `d3`.
+    /// D at cos α = `nh` for the shape parameters `shape` in declared order (one for D1–D3;
+    /// b and c for ABC).
+    pub fn eval_shape(self, nh: f64, shape: &[f64]) -> f64 {
+        match self {
+            Distribution::Abc => {
+                let x = 1.0 - nh.clamp(0.0, 1.0);
+                (1.0 + shape[0] * x).powf(-shape[1])
+            }
+            _ => self.eval(nh, shape[0]),
+        }
+    }
+
+    /// Parse `d1`, `d2`, `d3` or `abc`.
     pub fn parse(s: &str) -> Option<Self> {
         <Self as clap::ValueEnum>::from_str(s, true).ok()
     }
 
-    /// D(α) at cos α = `nh` for shape parameter `c`.
+    /// D(α) at cos α = `nh` for shape parameter `c` (for ABC, c is b with the exponent 2; see
+    /// [`Distribution::eval_shape`]).
     pub fn eval(self, nh: f64, c: f64) -> f64 {
         self.eval_dc(nh, c).0
     }
@@ -249,11 +339,17 @@ impl Distribution {
                 // dD/dc = 4 c³ (1 − x) / den³.
                 (q * q, 4.0 * c * s * (1.0 - x) / (den * den * den))
             }
+            Distribution::Abc => {
+                let x = 1.0 - nh;
+                let u = 1.0 + c * x;
+                (1.0 / (u * u), -2.0 * x / (u * u * u))
+            }
         }
     }
 
     /// The shape parameter for which D falls to ½ at half-angle `beta` (radians), Blinn's
-    /// c1(β) = −ln2/ln cosβ, c2(β) = √ln2/β, c3(β) = ((cos²β − 1)/(cos²β − √2))^½.
+    /// c1(β) = −ln2/ln cosβ, c2(β) = √ln2/β, c3(β) = ((cos²β − 1)/(cos²β − √2))^½; for ABC
+    /// b(β) = (√2 − 1)/(1 − cosβ), the b whose lobe with c = 2 has half-width β.
     pub fn param_from_beta(self, beta: f64) -> f64 {
         let cb = beta.cos();
         match self {
@@ -263,6 +359,7 @@ impl Distribution {
                 let x = cb * cb;
                 ((x - 1.0) / (x - std::f64::consts::SQRT_2)).sqrt()
             }
+            Distribution::Abc => (std::f64::consts::SQRT_2 - 1.0) / (1.0 - cb),
         }
     }
 }
@@ -286,6 +383,7 @@ pub fn d3_textured(nh: f64, cmin: f64, t: f64) -> f64 {
 /// and the same pd: the "equal β" comparison of Blinn's Figures 5–7.
 pub fn equal_beta_phong(ts: &Model) -> Model {
     let c = ts.p[1];
+    let ps = ts.role(super::Role::Specular).unwrap_or(0.0);
     // β where the distribution falls to ½.
     let beta = match ts.dist {
         Distribution::D1 => (0.5f64).powf(1.0 / c).acos(),
@@ -297,6 +395,7 @@ pub fn equal_beta_phong(ts: &Model) -> Model {
                 .sqrt()
                 .acos()
         }
+        Distribution::Abc => abc_half_width(ts.p[1], ts.p[2]),
     };
     let c1 = Distribution::D1.param_from_beta(beta);
     Model {
@@ -304,8 +403,8 @@ pub fn equal_beta_phong(ts: &Model) -> Model {
         dist: Distribution::D3,
         p: [
             c1,
-            ts.p[2] * f0_from_n(ts.p[0]),
-            ts.p[3],
+            ps * f0_from_n(ts.p[0]),
+            ts.pd(),
             0.0,
             0.0,
             0.0,

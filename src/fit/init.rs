@@ -1,0 +1,1090 @@
+//! Stage 2 of a fit: the global initialisation by variable projection over a grid of the
+//! nonlinear parameters, with the linear parameters solved at each grid point.
+
+use super::*;
+
+/// Torrance–Sparrow's specular basis s = D(c)·F(n)·G/(π N·L N·E) at every point of a grid of
+/// n (`ns`) and the distribution's shape parameters (`cs`: each point's values, c for D1–D3,
+/// (b, c) for ABC) is a term in n alone times a term in the shape alone: rows of `a`
+/// (F(n)·G/(π N·L N·E), one per n) times rows of `b` (D, one per shape point).
+pub(super) struct TsFactors {
+    /// F(n)·G/(π N·L N·E), one row of m per n, row-major.
+    pub(super) a: Vec<f64>,
+    /// D(c), one row of m per c, row-major.
+    pub(super) b: Vec<f64>,
+    pub(super) m: usize,
+}
+
+impl TsFactors {
+    fn new(rows: &Rows, dist: Distribution, ns: &[f64], cs: &[Vec<f64>]) -> Self {
+        let m = rows.len();
+        let pi = std::f64::consts::FRAC_1_PI;
+        let geo: Vec<f64> = (0..m).map(|r| rows.g_ne[r] * pi / rows.nl[r]).collect();
+        let a = ns
+            .iter()
+            .flat_map(|&n| (0..m).map(move |r| crate::model::fresnel(n, rows.eh[r])))
+            .zip(geo.iter().cycle())
+            .map(|(f, g)| f * g)
+            .collect();
+        let b = cs
+            .iter()
+            .flat_map(|c| (0..m).map(move |r| dist.eval_shape(rows.nh[r], c)))
+            .collect();
+        TsFactors { a, b, m }
+    }
+
+    /// [`basis_sums`] at every grid point, n-major: three matrix products (17 × m by m × 19
+    /// for the default grids) instead of a pass over the rows per grid point.
+    fn grid_sums(&self, w: &[f64], wf: &[f64]) -> Vec<[f64; 3]> {
+        use nalgebra::DMatrix;
+        let m = self.m;
+        let (ni, nc) = (self.a.len() / m, self.b.len() / m);
+        let rowm = |n: usize, f: &dyn Fn(usize) -> f64| DMatrix::from_fn(n, m, |i, r| f(i * m + r));
+        let a = &self.a;
+        let wa2 = rowm(ni, &|k| w[k % m] * a[k] * a[k]);
+        let wa = rowm(ni, &|k| w[k % m] * a[k]);
+        let wfa = rowm(ni, &|k| wf[k % m] * a[k]);
+        let bt = DMatrix::from_fn(m, nc, |r, j| self.b[j * m + r]);
+        let b2t = bt.map(|x| x * x);
+        let ss = wa2 * b2t;
+        let s1 = wa * &bt;
+        let sf = wfa * &bt;
+        (0..ni)
+            .flat_map(|i| (0..nc).map(move |j| (i, j)))
+            .map(|(i, j)| [ss[(i, j)], s1[(i, j)], sf[(i, j)]])
+            .collect()
+    }
+
+    /// The basis at grid point `index` (n-major), row by row.
+    fn basis(&self, index: usize) -> Basis<'_> {
+        let (m, nc) = (self.m, self.b.len() / self.m);
+        let (i, j) = (index / nc, index % nc);
+        Basis {
+            a: &self.a[i * m..(i + 1) * m],
+            b: &self.b[j * m..(j + 1) * m],
+        }
+    }
+}
+
+/// [Σw, Σwf, Σwf²] of rows with weights w and data f.
+pub(super) fn basis_free_sums(w: &[f64], f: &[f64]) -> [f64; 3] {
+    let mut k = [0.0; 3];
+    for (w, f) in w.iter().zip(f) {
+        k[0] += w;
+        k[1] += w * f;
+        k[2] += w * f * f;
+    }
+    k
+}
+
+/// [Σws², Σws, Σ(wf)s] over the rows. [`LANES`] rows at a time with per-lane sums added in
+/// lane order, so it vectorises (and gives the same sums on every instruction set it is
+/// compiled for).
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+pub(super) fn basis_sums(s: &[f64], w: &[f64], wf: &[f64]) -> [f64; 3] {
+    basis_sums_body(s, w, wf)
+}
+
+/// The body of [`basis_sums`] (no closures: in a multiversioned function they are not always
+/// inlined, and then do not vectorise).
+#[inline(always)]
+pub(super) fn basis_sums_body(s: &[f64], w: &[f64], wf: &[f64]) -> [f64; 3] {
+    let n = s.len().min(w.len()).min(wf.len());
+    let (s, w, wf) = (&s[..n], &w[..n], &wf[..n]);
+    let (mut a0, mut a1, mut a2) = ([0.0f64; LANES], [0.0f64; LANES], [0.0f64; LANES]);
+    let (sc, wc, fc) = (
+        s.chunks_exact(LANES),
+        w.chunks_exact(LANES),
+        wf.chunks_exact(LANES),
+    );
+    // The last block: lanes past the end have weight 0.
+    let mut tail = [[0.0f64; LANES]; 3];
+    tail[0][..sc.remainder().len()].copy_from_slice(sc.remainder());
+    tail[1][..wc.remainder().len()].copy_from_slice(wc.remainder());
+    tail[2][..fc.remainder().len()].copy_from_slice(fc.remainder());
+    let [ts, tw, tf] = &tail;
+    for ((s, w), f) in sc
+        .zip(wc)
+        .zip(fc)
+        .chain(std::iter::once(((&ts[..], &tw[..]), &tf[..])))
+    {
+        // One loop per sum: LLVM then packs lanes, not the sums of one lane.
+        let ws: [f64; LANES] = std::array::from_fn(|l| w[l] * s[l]);
+        for l in 0..LANES {
+            a0[l] += ws[l] * s[l];
+        }
+        for l in 0..LANES {
+            a1[l] += ws[l];
+        }
+        for l in 0..LANES {
+            a2[l] += f[l] * s[l];
+        }
+    }
+    [a0, a1, a2].map(|a| a.iter().sum())
+}
+
+/// A specular basis s row by row, as the product of two factors (Torrance–Sparrow's term in
+/// n times its term in c, or the basis times ones), so no grid point allocates its basis.
+#[derive(Clone, Copy)]
+pub(super) struct Basis<'a> {
+    pub(super) a: &'a [f64],
+    pub(super) b: &'a [f64],
+}
+
+/// The √weights of rows `range`, or an empty slice for unweighted rows.
+pub(super) fn weights(rows: &Rows, range: std::ops::Range<usize>) -> &[f64] {
+    if rows.weighted() {
+        &rows.sw[range]
+    } else {
+        &[]
+    }
+}
+
+/// One pass of the declared loss over rows `range` for model values f = a·s + b (s the
+/// basis): ½ Σ r² with r = sw (ℓ(f) − target), and the normal equations of (a, b):
+/// [JᵀJ_aa, JᵀJ_ab, JᵀJ_bb] and [Jᵀr_a, Jᵀr_b].
+pub(super) fn linear_pass(
+    rows: &Rows,
+    range: std::ops::Range<usize>,
+    s: Basis,
+    ab: (f64, f64),
+    loss: Loss,
+) -> (f64, [f64; 3], [f64; 2]) {
+    let sw = weights(rows, range.clone());
+    let t = match loss {
+        Loss::Log => linear_pass_log(
+            &rows.nl[range.clone()],
+            &rows.target[range.clone()],
+            sw,
+            s,
+            ab,
+        ),
+        Loss::Linear => linear_pass_linear(&rows.target[range], sw, s, ab),
+        Loss::Pixel => {
+            // Row by row (the pixel loss serves small scene-weighted sets).
+            let mut t = [0.0; 6];
+            for (k, i) in range.enumerate() {
+                let w = sw.get(k).copied().unwrap_or(1.0);
+                let (v, d) = loss.term(ab.0 * s.a[k] + ab.1 * s.b[k], rows.nl[i]);
+                let r = w * (v - rows.target[i]);
+                let (ja, jb) = (w * d * s.a[k], w * d * s.b[k]);
+                t[0] += 0.5 * r * r;
+                t[1] += ja * ja;
+                t[2] += ja * jb;
+                t[3] += jb * jb;
+                t[4] += ja * r;
+                t[5] += jb * r;
+            }
+            t
+        }
+    };
+    (t[0], [t[1], t[2], t[3]], [t[4], t[5]])
+}
+
+/// [`linear_pass`] for the log loss, eight rows at a time with the lane logarithm (`sw` empty =
+/// unweighted); the sums are added per lane, then in lane order.
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+pub(super) fn linear_pass_log(
+    nl: &[f64],
+    tg: &[f64],
+    sw: &[f64],
+    s: Basis,
+    ab: (f64, f64),
+) -> [f64; 6] {
+    linear_pass_log_body::<true>(nl, tg, sw, s, ab)
+}
+
+/// The cost alone of [`linear_pass_log`] (no Jacobian: no division per row).
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+pub(super) fn linear_cost_log(nl: &[f64], tg: &[f64], sw: &[f64], s: Basis, ab: (f64, f64)) -> f64 {
+    linear_pass_log_body::<false>(nl, tg, sw, s, ab)[0]
+}
+
+#[inline(always)]
+pub(super) fn linear_pass_log_body<const JAC: bool>(
+    nl: &[f64],
+    tg: &[f64],
+    sw: &[f64],
+    s: Basis,
+    ab: (f64, f64),
+) -> [f64; 6] {
+    let m = nl.len();
+    let mut acc = [[0.0f64; LANES]; 6];
+    let full = m / LANES * LANES;
+    let ones = [1.0f64; LANES];
+    let mut i = 0;
+    while i < full {
+        let get = |v: &[f64]| -> [f64; LANES] { v[i..i + LANES].try_into().expect("lane block") };
+        let w = if sw.is_empty() { ones } else { get(sw) };
+        let (sa, sb) = (get(s.a), get(s.b));
+        let sv = std::array::from_fn(|l| sa[l] * sb[l]);
+        linear_block::<JAC>(&get(nl), &get(tg), &w, &sv, ab, &mut acc);
+        i += LANES;
+    }
+    if i < m {
+        // The last block: lanes past the end have weight 0.
+        let len = m - i;
+        let pad = |v: &[f64]| -> [f64; LANES] { std::array::from_fn(|l| v[i + l.min(len - 1)]) };
+        let w: [f64; LANES] = std::array::from_fn(|l| match (l < len, sw.is_empty()) {
+            (false, _) => 0.0,
+            (true, true) => 1.0,
+            (true, false) => sw[i + l],
+        });
+        let (sa, sb) = (pad(s.a), pad(s.b));
+        let sv = std::array::from_fn(|l| sa[l] * sb[l]);
+        linear_block::<JAC>(&pad(nl), &pad(tg), &w, &sv, ab, &mut acc);
+    }
+    acc.map(|a| a.iter().sum::<f64>())
+}
+
+/// One block of [`LANES`] rows of [`linear_pass_log_body`].
+#[inline(always)]
+pub(super) fn linear_block<const JAC: bool>(
+    c: &[f64; LANES],
+    t: &[f64; LANES],
+    w: &[f64; LANES],
+    sv: &[f64; LANES],
+    (a, b): (f64, f64),
+    acc: &mut [[f64; LANES]; 6],
+) {
+    let y: [f64; LANES] = std::array::from_fn(|l| c[l] * (a * sv[l] + b));
+    if !JAC {
+        let u: [f64; LANES] = std::array::from_fn(|l| 1.0 + y[l]);
+        let v = lanes::ln(&u);
+        for l in 0..LANES {
+            // fdlibm log1p's correction for the rounding of u, without its division by u
+            // (a change below 2⁻⁵³ relative, enough for ranking grid points).
+            let r = w[l] * (v[l] + (y[l] - (u[l] - 1.0)) - t[l]);
+            acc[0][l] += 0.5 * r * r;
+        }
+        return;
+    }
+    let (v, iu) = lanes::ln_1p(&y);
+    for l in 0..LANES {
+        let r = w[l] * (v[l] - t[l]);
+        let jb = w[l] * c[l] * iu[l];
+        let ja = jb * sv[l];
+        acc[0][l] += 0.5 * r * r;
+        acc[1][l] += ja * ja;
+        acc[2][l] += ja * jb;
+        acc[3][l] += jb * jb;
+        acc[4][l] += ja * r;
+        acc[5][l] += jb * r;
+    }
+}
+
+/// [`linear_pass`] for the linear loss.
+pub(super) fn linear_pass_linear(tg: &[f64], sw: &[f64], s: Basis, (a, b): (f64, f64)) -> [f64; 6] {
+    let mut t = [0.0f64; 6];
+    for i in 0..tg.len() {
+        let w = sw.get(i).copied().unwrap_or(1.0);
+        let si = s.a[i] * s.b[i];
+        let r = w * (a * si + b - tg[i]);
+        let (ja, jb) = (w * si, w);
+        t[0] += 0.5 * r * r;
+        t[1] += ja * ja;
+        t[2] += ja * jb;
+        t[3] += jb * jb;
+        t[4] += ja * r;
+        t[5] += jb * r;
+    }
+    t
+}
+
+/// Minimise the declared loss over the linear coefficients c of f = Σ c_j s_j from `start`
+/// by `steps` projected Gauss–Newton steps (each backtracked up to three times); a free
+/// coefficient stays ≥ 0, a held one keeps its value. `pass` gives ½ Σ r², JᵀJ (row-major)
+/// and Jᵀr at c; `cost` the first alone (cheaper). Returns the cost and c.
+pub(super) fn refine_linear(
+    start: &[f64],
+    free: &[bool],
+    loss: Loss,
+    steps: usize,
+    pass: impl Fn(&[f64]) -> (f64, Vec<f64>, Vec<f64>),
+    cost: impl Fn(&[f64]) -> f64,
+) -> (f64, Vec<f64>) {
+    let mut x = start.to_vec();
+    // The linear loss is minimised exactly by the linear solve.
+    if steps == 0 || loss == Loss::Linear {
+        return (cost(&x), x);
+    }
+    let k = x.len();
+    let (mut c, mut jtj, mut jtr) = pass(&x);
+    for _ in 0..steps {
+        let diag: Vec<f64> = (0..k).map(|i| jtj[i * k + i]).collect();
+        let held: Vec<bool> = (0..k).map(|i| !free[i] || !(diag[i] > 0.0)).collect();
+        if held.iter().all(|&h| h) {
+            break;
+        }
+        let d: Vec<f64> = diag
+            .iter()
+            .map(|&v| if v > 0.0 { v } else { 1.0 })
+            .collect();
+        let Some(dx) = lsq::damped_solve(&jtj, &jtr, &d, 1e-9, &held) else {
+            break;
+        };
+        let mut step = 1.0;
+        let mut accepted = false;
+        for _ in 0..3 {
+            let xn: Vec<f64> = (0..k)
+                .map(|i| {
+                    if held[i] {
+                        x[i]
+                    } else {
+                        (x[i] + step * dx[i]).max(0.0)
+                    }
+                })
+                .collect();
+            let (cn, jn, gn) = pass(&xn);
+            if cn < c {
+                (x, c, jtj, jtr) = (xn, cn, jn, gn);
+                accepted = true;
+                break;
+            }
+            step *= 0.25;
+        }
+        if !accepted {
+            break;
+        }
+    }
+    (c, x)
+}
+
+/// One pass of the declared loss over rows `range` for f = Σ c_j s_j with the bases `s` (a
+/// row loop, for models with several specular lobes): ½ Σ r² with r = sw (ℓ(f) − target),
+/// JᵀJ (row-major) and Jᵀr of c.
+pub(super) fn linear_pass_many(
+    rows: &Rows,
+    range: std::ops::Range<usize>,
+    s: &[Basis],
+    c: &[f64],
+    loss: Loss,
+) -> (f64, Vec<f64>, Vec<f64>) {
+    let k = s.len();
+    let (mut cost, mut jtj, mut jtr) = (0.0, vec![0.0; k * k], vec![0.0; k]);
+    let mut j = vec![0.0; k];
+    for (i, r) in range.enumerate() {
+        let w = if rows.weighted() { rows.sw[r] } else { 1.0 };
+        let sv: Vec<f64> = s.iter().map(|b| b.a[i] * b.b[i]).collect();
+        let f: f64 = sv.iter().zip(c).map(|(a, b)| a * b).sum();
+        let res = match loss {
+            Loss::Log => {
+                let y = rows.nl[r] * f;
+                let d = w * rows.nl[r] / (1.0 + y);
+                for (jj, si) in j.iter_mut().zip(&sv) {
+                    *jj = d * si;
+                }
+                w * (y.ln_1p() - rows.target[r])
+            }
+            Loss::Linear => {
+                for (jj, si) in j.iter_mut().zip(&sv) {
+                    *jj = w * si;
+                }
+                w * (f - rows.target[r])
+            }
+            Loss::Pixel => {
+                let (v, d) = loss.term(f, rows.nl[r]);
+                for (jj, si) in j.iter_mut().zip(&sv) {
+                    *jj = w * d * si;
+                }
+                w * (v - rows.target[r])
+            }
+        };
+        cost += 0.5 * res * res;
+        for a in 0..k {
+            jtr[a] += j[a] * res;
+            for b in 0..k {
+                jtj[a * k + b] += j[a] * j[b];
+            }
+        }
+    }
+    (cost, jtj, jtr)
+}
+
+/// The weighted normal equations of the linear problem f_data ≈ Σ c_j s_j: the Gram matrix
+/// Σ w s_i s_j (row-major) and Σ (w f) s_i, for bases `s`, weights `w` and `wf` = w·f_data.
+pub(super) fn gram_sums(s: &[Basis], w: &[f64], wf: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let k = s.len();
+    let (mut g, mut h) = (vec![0.0; k * k], vec![0.0; k]);
+    for i in 0..w.len() {
+        let sv: Vec<f64> = s.iter().map(|b| b.a[i] * b.b[i]).collect();
+        for a in 0..k {
+            h[a] += wf[i] * sv[a];
+            for b in 0..k {
+                g[a * k + b] += w[i] * sv[a] * sv[b];
+            }
+        }
+    }
+    (g, h)
+}
+
+/// The linear coefficients that minimise ½ cᵀGc − hᵀc (the weighted linear least squares of
+/// [`gram_sums`]) with the held coefficients (`free` false) at their values in `c` and the
+/// free ones ≥ 0 ([`nnls`]).
+pub(super) fn linear_solve(g: &[f64], h: &[f64], c: &[f64], free: &[bool]) -> Vec<f64> {
+    let k = c.len();
+    // y = f − Σ_held c_j s_j: the right-hand side loses the held columns.
+    let h: Vec<f64> = (0..k)
+        .map(|i| {
+            h[i] - (0..k)
+                .filter(|&j| !free[j])
+                .map(|j| g[i * k + j] * c[j])
+                .sum::<f64>()
+        })
+        .collect();
+    let x = nnls(g, &h, free);
+    (0..k).map(|i| if free[i] { x[i] } else { c[i] }).collect()
+}
+
+/// Non-negative least squares from the normal equations: minimise ½ xᵀAx − bᵀx over x ≥ 0 (A
+/// k × k row-major, symmetric positive semi-definite), an unknown that is not `free` held at
+/// 0. The active-set method of Lawson & Hanson (1974, "Solving Least Squares Problems",
+/// ch. 23, algorithm NNLS), on the normal equations: unknowns enter the passive set by the
+/// largest gradient and leave it by interpolating back to feasibility. An unknown whose
+/// diagonal is 0 (a basis that vanishes on every row) stays 0.
+pub(super) fn nnls(a: &[f64], b: &[f64], free: &[bool]) -> Vec<f64> {
+    let k = b.len();
+    let mut x = vec![0.0; k];
+    let usable: Vec<bool> = (0..k).map(|i| free[i] && a[i * k + i] > 0.0).collect();
+    let diag: Vec<f64> = (0..k)
+        .map(|i| if usable[i] { a[i * k + i] } else { 1.0 })
+        .collect();
+    let mut passive = vec![false; k];
+    // The gradient test scale: a tolerance relative to the problem's own size.
+    let scale = (0..k)
+        .filter(|&i| usable[i])
+        .map(|i| b[i].abs() + a[i * k + i].sqrt())
+        .fold(0.0, f64::max);
+    let tol = 1e-12 * scale.max(1e-300);
+    // The solution of the equations restricted to the passive set (zero elsewhere).
+    let solve = |passive: &[bool]| {
+        let held: Vec<bool> = passive.iter().map(|p| !p).collect();
+        let neg: Vec<f64> = b.iter().map(|v| -v).collect();
+        lsq::damped_solve(a, &neg, &diag, 0.0, &held)
+    };
+    for _ in 0..3 * k + 1 {
+        // w = b − A x: the descent direction of each unknown.
+        let w: Vec<f64> = (0..k)
+            .map(|i| b[i] - (0..k).map(|j| a[i * k + j] * x[j]).sum::<f64>())
+            .collect();
+        let Some(j) = (0..k)
+            .filter(|&i| usable[i] && !passive[i] && w[i] > tol)
+            .max_by(|&p, &q| w[p].total_cmp(&w[q]))
+        else {
+            break;
+        };
+        passive[j] = true;
+        let mut progressed = false;
+        for _ in 0..k + 1 {
+            let Some(z) = solve(&passive) else {
+                break;
+            };
+            if (0..k).all(|i| !passive[i] || z[i] > 0.0) {
+                x = z;
+                progressed = true;
+                break;
+            }
+            // Step from x towards z until the first passive unknown reaches 0.
+            let alpha = (0..k)
+                .filter(|&i| passive[i] && z[i] <= 0.0)
+                .map(|i| x[i] / (x[i] - z[i]))
+                .fold(1.0, f64::min);
+            for i in 0..k {
+                x[i] += alpha * (z[i] - x[i]);
+                if passive[i] && x[i] <= 1e-15 * x[i].abs().max(1.0) {
+                    x[i] = 0.0;
+                    passive[i] = false;
+                }
+            }
+        }
+        if !progressed {
+            passive[j] = false;
+            break;
+        }
+    }
+    x.iter().map(|v| v.max(0.0)).collect()
+}
+
+/// Gauss–Newton steps on the linear coefficients at the grid points that are refined.
+pub(super) const LINEAR_STEPS: usize = 3;
+
+/// Grid points whose (ps, pd) are refined in the declared loss: the best this many by the
+/// first score, and as many of the grid's local minima.
+pub(super) const REFINED_POINTS: usize = 8;
+
+/// Rows per channel the global initialisation scores its grid on.
+pub(super) const INIT_ROWS: usize = 500;
+
+/// How many candidates of distinct basins the global initialisation hands to the local method.
+pub(super) const CANDIDATES: usize = 4;
+
+/// Variable projection over a grid of the nonlinear parameters that spans each one's whole
+/// admissible range ([`crate::model::ParamSpec::grid`]): at each grid point the free linear
+/// parameters of each channel (every lobe's ps, and pd) come from a weighted non-negative
+/// linear least-squares solve ([`nnls`]; weights that linearise the loss at the data); each
+/// point is then scored on the *declared* loss at those values, so a basin ranks by the cost
+/// the fit minimises, not by its linearisation. The grid's local minima (distinct basins) are
+/// returned best first, at most [`CANDIDATES`], as solver variables.
+pub(super) fn global_init(
+    full: &BrdfProblem,
+    specs: &[&ParamSpec],
+    opts: &FitOptions,
+) -> Vec<Vec<f64>> {
+    let p = full.subsample(INIT_ROWS);
+    let nfree = p.transforms.len();
+    let kind = opts.kind;
+    let model_specs = kind.params(opts.dist);
+    // The linear coefficients: each lobe's ps, then pd (as pd/π, its basis being 1).
+    let ips: Vec<usize> = (0..model_specs.len())
+        .filter(|&i| model_specs[i].role == Role::Specular)
+        .collect();
+    let ipd = kind
+        .index_of(opts.dist, Role::Diffuse)
+        .expect("every model has pd");
+    let k = ips.len() + 1;
+    let (nonlinear, dims, points) = grid_points(specs, nfree);
+    let (fdata, wdata) = linearised_data(&p, opts.loss);
+    let wf: Vec<f64> = wdata.iter().zip(&fdata).map(|(w, f)| w * f).collect();
+    // Per channel, the sums that do not depend on the grid point.
+    let free_sums: Vec<[f64; 3]> = (0..p.layout.len())
+        .map(|c| {
+            let rows = p.starts[c]..p.starts[c + 1];
+            basis_free_sums(&wdata[rows.clone()], &fdata[rows])
+        })
+        .collect();
+    // Torrance–Sparrow on one channel with n and every shape parameter free: every point's
+    // sums at once.
+    let shapes = model_specs.iter().filter(|s| s.role == Role::Shape).count();
+    let separable = (kind == ModelKind::TorranceSparrow
+        && p.layout.len() == 1
+        && ips.len() == 1
+        && nonlinear.len() == 1 + shapes
+        && specs[nonlinear[0].0].role == Role::Index
+        && nonlinear[1..]
+            .iter()
+            .all(|(k, _)| specs[*k].role == Role::Shape))
+    .then(|| {
+        // The shape grid points, row-major as in `points` (n is the slowest axis).
+        let per_n = points.len() / nonlinear[0].1.len();
+        let cs: Vec<Vec<f64>> = points[..per_n].iter().map(|pt| pt[1..].to_vec()).collect();
+        let f = TsFactors::new(&p.rows, opts.dist, &nonlinear[0].1, &cs);
+        let table = f.grid_sums(&wdata, &wf);
+        (f, table)
+    });
+    let (ones, zeros) = (vec![1.0; p.rows.len()], vec![0.0; p.rows.len()]);
+    let score_point = |index: usize, steps: usize| {
+        let pt = &points[index];
+        // Natural values of all free variables at this grid point (linear ones solved).
+        let mut theta = vec![f64::NAN; nfree];
+        let mut score = 0.0;
+        for ((k, _), v) in nonlinear.iter().zip(pt) {
+            theta[*k] = *v;
+        }
+        for c in 0..p.layout.len() {
+            let slots = p.layout[c];
+            let rows = p.starts[c]..p.starts[c + 1];
+            let n = rows.len();
+            let mut vals = [0.0; crate::model::MAX_PARAMS];
+            for j in 0..model_specs.len() {
+                vals[j] = match slots[j] {
+                    Slot::Fixed(v) => v,
+                    Slot::Free(k) => theta[k],
+                };
+            }
+            // Each coefficient's value if held, and whether it is free.
+            let mut held = vec![0.0; k];
+            let mut free = vec![false; k];
+            for (j, &i) in ips.iter().chain([&ipd]).enumerate() {
+                match slots[i] {
+                    Slot::Fixed(v) => held[j] = v,
+                    Slot::Free(_) => free[j] = true,
+                }
+                vals[i] = 0.0;
+            }
+            held[k - 1] *= std::f64::consts::FRAC_1_PI;
+            // The specular basis of lobe i: the model with that ps = 1 and every other linear
+            // parameter 0.
+            let lobe = |i: usize| {
+                let mut v = vals;
+                v[i] = 1.0;
+                problem::brdf_values(&full.template.with_params(&v), &p.rows, rows.clone())
+            };
+            let (cost, x) = if ips.len() <= 1 {
+                // One lobe (or none): the lane kernels, coefficients (ps, pd/π).
+                let owned: Vec<f64>;
+                let basis = match (&separable, ips.first()) {
+                    (Some((f, _)), _) => f.basis(index),
+                    (None, Some(&i)) => {
+                        owned = lobe(i);
+                        Basis {
+                            a: &owned,
+                            b: &ones[..n],
+                        }
+                    }
+                    (None, None) => Basis {
+                        a: &zeros[..n],
+                        b: &ones[..n],
+                    },
+                };
+                let [ss, s1, sf] = match &separable {
+                    Some((_, table)) => table[index],
+                    // Here the basis is its first factor (the second is ones).
+                    None => basis_sums(basis.a, &wdata[rows.clone()], &wf[rows.clone()]),
+                };
+                let [w1, f1, _] = free_sums[c];
+                let (start, free2) = if ips.is_empty() {
+                    ([0.0, held[0]], [false, free[0]])
+                } else {
+                    ([held[0], held[1]], [free[0], free[1]])
+                };
+                let x0 = linear_solve(&[ss, s1, s1, w1], &[sf, f1], &start, &free2);
+                let pass = |x: &[f64]| {
+                    let (cost, jtj, jtr) =
+                        linear_pass(&p.rows, rows.clone(), basis, (x[0], x[1]), opts.loss);
+                    (cost, vec![jtj[0], jtj[1], jtj[1], jtj[2]], jtr.to_vec())
+                };
+                let cost = |x: &[f64]| match opts.loss {
+                    Loss::Log => {
+                        let r = rows.clone();
+                        linear_cost_log(
+                            &p.rows.nl[r.clone()],
+                            &p.rows.target[r.clone()],
+                            weights(&p.rows, r),
+                            basis,
+                            (x[0], x[1]),
+                        )
+                    }
+                    Loss::Linear | Loss::Pixel => pass(x).0,
+                };
+                let (cost, x) = refine_linear(&x0, &free2, opts.loss, steps, pass, cost);
+                let x = if ips.is_empty() { vec![x[1]] } else { x };
+                (cost, x)
+            } else {
+                // Several lobes: a basis each, and a row loop.
+                let owned: Vec<Vec<f64>> = ips.iter().map(|&i| lobe(i)).collect();
+                let mut bases: Vec<Basis> = owned
+                    .iter()
+                    .map(|s| Basis {
+                        a: s,
+                        b: &ones[..n],
+                    })
+                    .collect();
+                bases.push(Basis {
+                    a: &ones[..n],
+                    b: &ones[..n],
+                });
+                let (g, h) = gram_sums(&bases, &wdata[rows.clone()], &wf[rows.clone()]);
+                let x0 = linear_solve(&g, &h, &held, &free);
+                let pass =
+                    |x: &[f64]| linear_pass_many(&p.rows, rows.clone(), &bases, x, opts.loss);
+                refine_linear(&x0, &free, opts.loss, steps, pass, |x| pass(x).0)
+            };
+            score += cost;
+            for (j, &i) in ips.iter().chain([&ipd]).enumerate() {
+                if let Slot::Free(v) = slots[i] {
+                    theta[v] = if j == k - 1 {
+                        x[j] * std::f64::consts::PI
+                    } else {
+                        x[j]
+                    };
+                }
+            }
+        }
+        let x: Vec<f64> = (0..nfree)
+            .map(|k| p.transforms[k].invert(theta[k]))
+            .collect();
+        let score = if score.is_finite() {
+            score
+        } else {
+            f64::INFINITY
+        };
+        (score, x)
+    };
+    // Every point scored at the linear solve's (ps, pd) (an upper bound of its best score),
+    // then the promising ones with (ps, pd) minimising the declared loss.
+    use rayon::prelude::*;
+    let mut scored: Vec<(f64, Vec<f64>)> = (0..points.len())
+        .into_par_iter()
+        .map(|i| score_point(i, 0))
+        .collect();
+    let first: Vec<f64> = scored.iter().map(|s| s.0).collect();
+    let mut refine = grid_minima(&first, &dims, REFINED_POINTS);
+    let mut order: Vec<usize> = (0..first.len()).collect();
+    order.sort_by(|&a, &b| first[a].total_cmp(&first[b]).then(a.cmp(&b)));
+    refine.extend(order.into_iter().take(REFINED_POINTS));
+    refine.sort_unstable();
+    refine.dedup();
+    let better: Vec<(usize, (f64, Vec<f64>))> = refine
+        .par_iter()
+        .map(|&i| (i, score_point(i, LINEAR_STEPS)))
+        .collect();
+    for (i, s) in better {
+        if s.0 <= scored[i].0 {
+            scored[i] = s;
+        }
+    }
+    let scores: Vec<f64> = scored.iter().map(|s| s.0).collect();
+    grid_minima(&scores, &dims, CANDIDATES)
+        .into_iter()
+        .map(|i| scored[i].1.clone())
+        .collect()
+}
+
+/// The starting grid of the nonlinear free variables: which variables have a grid, the grid
+/// sizes, and every grid point (row-major). While the product of their sizes exceeds 4,096
+/// (several shape parameters, or a joint fit with per-channel ones) the longest grid (the
+/// first of equals) keeps every other value.
+pub(super) fn grid_points(specs: &[&ParamSpec], nfree: usize) -> GridPoints {
+    let mut nonlinear: Vec<(usize, Vec<f64>)> = (0..nfree)
+        .filter_map(|k| {
+            let g = specs[k].grid_values();
+            (!g.is_empty()).then_some((k, g))
+        })
+        .collect();
+    // The longest grid is halved first, so two shapes and an index (19 × 19 × 17) keep
+    // 10 × 19 × 17 points rather than every grid halved (10 × 10 × 9).
+    while nonlinear.iter().map(|(_, g)| g.len()).product::<usize>() > 4096 {
+        let longest = (0..nonlinear.len())
+            .max_by(|&a, &b| {
+                nonlinear[a]
+                    .1
+                    .len()
+                    .cmp(&nonlinear[b].1.len())
+                    .then(b.cmp(&a))
+            })
+            .expect("a product over 4,096 has a grid");
+        let g = &mut nonlinear[longest].1;
+        *g = g.iter().step_by(2).copied().collect();
+    }
+    let dims: Vec<usize> = nonlinear.iter().map(|(_, g)| g.len()).collect();
+    let mut points: Vec<Vec<f64>> = vec![vec![]];
+    for (_, g) in &nonlinear {
+        points = points
+            .iter()
+            .flat_map(|pt| {
+                g.iter().map(move |v| {
+                    let mut q = pt.clone();
+                    q.push(*v);
+                    q
+                })
+            })
+            .collect();
+    }
+    (nonlinear, dims, points)
+}
+
+/// Gridded variables with their values, the grid sizes, and the grid points.
+pub(super) type GridPoints = (Vec<(usize, Vec<f64>)>, Vec<usize>, Vec<Vec<f64>>);
+
+/// Per row, the data f_r and the weight that linearises the loss around it (parameter-free):
+/// for the log loss r ≈ cosθi Δf / (1 + cosθi f), so w = (cosθi / (1 + cosθi f))².
+pub(super) fn linearised_data(p: &BrdfProblem, loss: Loss) -> (Vec<f64>, Vec<f64>) {
+    (0..p.rows.len())
+        .map(|i| {
+            let r = p.rows.get(i);
+            let fd = match loss {
+                Loss::Log => r.target.exp_m1() / r.cos_i,
+                Loss::Linear => r.target,
+                // The sRGB encoding inverted (the smooth clip taken as none).
+                Loss::Pixel => {
+                    let v = r.target.max(0.0);
+                    let c = if v <= 12.92 * 0.003_130_8 {
+                        v / 12.92
+                    } else {
+                        ((v + 0.055) / 1.055).powf(2.4)
+                    };
+                    c / r.cos_i
+                }
+            };
+            let w = match loss {
+                Loss::Log => (r.cos_i / (1.0 + r.cos_i * fd)).powi(2),
+                Loss::Linear => 1.0,
+                Loss::Pixel => loss.term(fd, r.cos_i).1.powi(2),
+            } * r.sw
+                * r.sw;
+            (fd, w)
+        })
+        .unzip()
+}
+
+/// The local minima of a score tabulated on a grid (row-major over `dims`; a point is a
+/// minimum when no neighbour along any axis scores lower), best first, at most `limit`; if
+/// there are fewer than two, the best other point not next to a kept one is added.
+pub(super) fn grid_minima(scores: &[f64], dims: &[usize], limit: usize) -> Vec<usize> {
+    let strides: Vec<usize> = (0..dims.len())
+        .map(|d| dims[d + 1..].iter().product())
+        .collect();
+    let coord = |i: usize, d: usize| (i / strides[d]) % dims[d];
+    let neighbours = |i: usize| {
+        let mut v = Vec::new();
+        for d in 0..dims.len() {
+            let c = coord(i, d);
+            if c > 0 {
+                v.push(i - strides[d]);
+            }
+            if c + 1 < dims[d] {
+                v.push(i + strides[d]);
+            }
+        }
+        v
+    };
+    let mut order: Vec<usize> = (0..scores.len())
+        .filter(|&i| scores[i].is_finite())
+        .collect();
+    order.sort_by(|&a, &b| scores[a].total_cmp(&scores[b]).then(a.cmp(&b)));
+    let is_min = |i: usize| neighbours(i).iter().all(|&j| scores[i] <= scores[j]);
+    let mut kept: Vec<usize> = order
+        .iter()
+        .copied()
+        .filter(|&i| is_min(i))
+        .take(limit)
+        .collect();
+    for &i in &order {
+        if kept.len() >= limit.min(2) {
+            break;
+        }
+        let near = kept
+            .iter()
+            .any(|&k| (0..dims.len()).all(|d| coord(i, d).abs_diff(coord(k, d)) <= 1));
+        if !near {
+            kept.push(i);
+        }
+    }
+    kept
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The lane sums of the global initialisation equal plain sums written out here, for
+    /// lengths with and without a partial last block.
+    #[test]
+    fn basis_sums_match_plain_sums() {
+        for m in [0, 1, 7, 8, 9, 500, 1003] {
+            let s: Vec<f64> = (0..m)
+                .map(|i| (0.37 * i as f64).sin().abs() * 3.0)
+                .collect();
+            let fd: Vec<f64> = (0..m)
+                .map(|i| 0.1 + (0.11 * i as f64).cos().powi(2))
+                .collect();
+            let w: Vec<f64> = (0..m).map(|i| 1.0 / (1.0 + i as f64 % 5.0)).collect();
+            let mut want = [0.0; 6];
+            for i in 0..m {
+                let t = [s[i] * s[i], s[i], fd[i] * s[i], 1.0, fd[i], fd[i] * fd[i]];
+                for k in 0..6 {
+                    want[k] += w[i] * t[k];
+                }
+            }
+            let wf: Vec<f64> = w.iter().zip(&fd).map(|(w, f)| w * f).collect();
+            let a = basis_sums(&s, &w, &wf);
+            let b = basis_free_sums(&w, &fd);
+            let got = [a[0], a[1], a[2], b[0], b[1], b[2]];
+            for k in 0..6 {
+                let tol = 1e-13 * want[k].abs().max(1e-300);
+                assert!(
+                    (got[k] - want[k]).abs() <= tol,
+                    "m={m} k={k}: {got:?} vs {want:?}"
+                );
+            }
+        }
+    }
+
+    /// ½ xᵀAx − bᵀx.
+    fn quadratic(a: &[f64], b: &[f64], x: &[f64]) -> f64 {
+        let k = b.len();
+        (0..k)
+            .map(|i| 0.5 * x[i] * (0..k).map(|j| a[i * k + j] * x[j]).sum::<f64>() - b[i] * x[i])
+            .sum()
+    }
+
+    /// The brute-force answer of a non-negative quadratic problem: the unconstrained minimum
+    /// on every subset of the free unknowns (Gaussian elimination written here), the best one
+    /// that is ≥ 0. The convex problem's minimum is the unconstrained one on its support.
+    fn brute_force(a: &[f64], b: &[f64], free: &[bool]) -> Vec<f64> {
+        let k = b.len();
+        let mut best = (0.0, vec![0.0; k]);
+        for mask in 0..1usize << k {
+            let set: Vec<usize> = (0..k).filter(|&i| mask >> i & 1 == 1).collect();
+            if set.iter().any(|&i| !free[i]) || set.is_empty() {
+                continue;
+            }
+            let n = set.len();
+            let mut m: Vec<Vec<f64>> = set
+                .iter()
+                .map(|&i| {
+                    let mut row: Vec<f64> = set.iter().map(|&j| a[i * k + j]).collect();
+                    row.push(b[i]);
+                    row
+                })
+                .collect();
+            for c in 0..n {
+                let piv = (c..n)
+                    .max_by(|&p, &q| m[p][c].abs().total_cmp(&m[q][c].abs()))
+                    .unwrap();
+                m.swap(c, piv);
+                for r in 0..n {
+                    if r != c {
+                        let f = m[r][c] / m[c][c];
+                        for j in c..=n {
+                            m[r][j] -= f * m[c][j];
+                        }
+                    }
+                }
+            }
+            let mut x = vec![0.0; k];
+            for (r, &i) in set.iter().enumerate() {
+                x[i] = m[r][n] / m[r][r];
+            }
+            if x.iter().all(|&v| v >= 0.0) {
+                let q = quadratic(a, b, &x);
+                if q < best.0 {
+                    best = (q, x);
+                }
+            }
+        }
+        best.1
+    }
+
+    /// Lawson–Hanson NNLS agrees with the brute force over every subset on 400 random
+    /// problems of 1–4 unknowns (Gram matrices of random bases, some unknowns held).
+    #[test]
+    fn nnls_matches_brute_force() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(22);
+        let mut bound = 0;
+        for case in 0..400 {
+            let k = 1 + case % 4;
+            let rows = 6;
+            let s: Vec<f64> = (0..rows * k).map(|_| rng.random::<f64>() - 0.3).collect();
+            let y: Vec<f64> = (0..rows).map(|_| rng.random::<f64>() - 0.5).collect();
+            let a: Vec<f64> = (0..k * k)
+                .map(|ij| {
+                    (0..rows)
+                        .map(|r| s[r * k + ij / k] * s[r * k + ij % k])
+                        .sum()
+                })
+                .collect();
+            let b: Vec<f64> = (0..k)
+                .map(|i| (0..rows).map(|r| s[r * k + i] * y[r]).sum())
+                .collect();
+            let free: Vec<bool> = (0..k).map(|i| case % 7 != i).collect();
+            let got = nnls(&a, &b, &free);
+            let want = brute_force(&a, &b, &free);
+            bound += got.iter().filter(|&&v| v == 0.0).count();
+            let (qg, qw) = (quadratic(&a, &b, &got), quadratic(&a, &b, &want));
+            assert!(got.iter().all(|&v| v >= 0.0), "case {case}: {got:?}");
+            for i in 0..k {
+                assert!(free[i] || got[i] == 0.0, "case {case}: held {i} moved");
+            }
+            assert!(
+                (qg - qw).abs() <= 1e-10 * qw.abs().max(1e-12),
+                "case {case}: nnls {got:?} ({qg}) vs brute force {want:?} ({qw})"
+            );
+        }
+        assert!(bound > 100, "the cases must reach the bounds: {bound}");
+    }
+
+    /// Hand-worked: with A = [[2, 1], [1, 2]] and b = (3, 0) the unconstrained solution is
+    /// (2, −1), so NNLS holds the second at 0 and gives 3/2; held at 1, the first's equation
+    /// 2x + 1 = 3 gives x = 1; a vanishing basis (A₂₂ = 0) stays 0.
+    #[test]
+    fn nnls_and_held_coefficients_by_hand() {
+        let a = [2.0, 1.0, 1.0, 2.0];
+        let close = |x: &[f64], want: [f64; 2]| (0..2).all(|i| (x[i] - want[i]).abs() < 1e-14);
+        assert!(close(&nnls(&a, &[3.0, 0.0], &[true, true]), [1.5, 0.0]));
+        let both = nnls(&a, &[3.0, 3.0], &[true, true]);
+        assert!((both[0] - 1.0).abs() < 1e-14 && (both[1] - 1.0).abs() < 1e-14);
+        let x = linear_solve(&a, &[3.0, 0.0], &[0.0, 1.0], &[true, false]);
+        assert!((x[0] - 1.0).abs() < 1e-14 && x[1] == 1.0, "{x:?}");
+        let x = nnls(&[2.0, 0.0, 0.0, 0.0], &[4.0, 1.0], &[true, true]);
+        assert!(close(&x, [2.0, 0.0]), "{x:?}");
+    }
+
+    /// Two shape parameters and an index (19 × 19 × 17 > 4,096 points): the longest grid
+    /// (the first of equals) is halved once, to 10 × 19 × 17.
+    #[test]
+    fn two_shapes_and_an_index_keep_most_of_the_grid() {
+        let specs = ModelKind::TorranceSparrow.params(Distribution::D3);
+        let (n, c3) = (&specs[0], &specs[1]);
+        let (_, dims, points) = grid_points(&[c3, c3, n], 3);
+        assert_eq!(dims, vec![10, 19, 17]);
+        assert_eq!(points.len(), 10 * 19 * 17);
+    }
+
+    /// The tabulated sums of Torrance–Sparrow's separable basis equal, point by point, the
+    /// sums of the basis evaluated through the model (problem::brdf_values), for D3 and D1.
+    #[test]
+    fn separable_grid_sums_match_the_model_point_by_point() {
+        use crate::model::Geometry;
+        use problem::Row;
+        let mut rows = Vec::new();
+        for k in 0..300 {
+            let x = k as f64;
+            let g = Geometry::from_angles(
+                (0.37 * x).sin().abs() * 1.4,
+                0.0,
+                (0.71 * x).cos().abs() * 1.4,
+                2.0 * (0.13 * x).sin() * std::f64::consts::PI,
+            );
+            if g.visible() {
+                rows.push(Row {
+                    g,
+                    cos_i: g.nl,
+                    target: 0.0,
+                    sw: 1.0,
+                });
+            }
+        }
+        let rows = Rows::from(rows);
+        let m = rows.len();
+        let w: Vec<f64> = (0..m).map(|i| 0.5 + (i % 7) as f64 / 7.0).collect();
+        let wf: Vec<f64> = (0..m).map(|i| w[i] * (0.2 + (i % 5) as f64)).collect();
+        for dist in [Distribution::D3, Distribution::D1, Distribution::Abc] {
+            let specs = ModelKind::TorranceSparrow.params(dist);
+            let ns = specs[0].grid_values();
+            // The shape points: c for D1–D3, every (b, c) of the two grids for ABC.
+            let mut cs: Vec<Vec<f64>> = vec![vec![]];
+            for s in specs.iter().filter(|s| s.role == crate::model::Role::Shape) {
+                cs = cs
+                    .iter()
+                    .flat_map(|pt| {
+                        s.grid_values()
+                            .into_iter()
+                            .map(move |v| [&pt[..], &[v]].concat())
+                    })
+                    .collect();
+            }
+            let factors = TsFactors::new(&rows, dist, &ns, &cs);
+            let table = factors.grid_sums(&w, &wf);
+            assert_eq!(table.len(), ns.len() * cs.len());
+            for (i, n) in ns.iter().enumerate() {
+                for (j, c) in cs.iter().enumerate() {
+                    let params = [&[*n][..], c, &[1.0, 0.0]].concat();
+                    let model = Model::new(ModelKind::TorranceSparrow, dist, &params).unwrap();
+                    let basis = problem::brdf_values(&model, &rows, 0..m);
+                    let want = basis_sums(&basis, &w, &wf);
+                    let index = i * cs.len() + j;
+                    let got = table[index];
+                    let fb = factors.basis(index);
+                    let got_basis = fb.a.iter().zip(fb.b).map(|(x, y)| x * y);
+                    for (r, (a, b)) in got_basis.zip(&basis).enumerate() {
+                        assert!(
+                            (a - b).abs() <= 1e-12 * b.abs().max(1e-300),
+                            "row {r}: {a} vs {b}"
+                        );
+                    }
+                    for k in 0..3 {
+                        let tol = 1e-10 * want[k].abs().max(1e-300);
+                        assert!(
+                            (got[k] - want[k]).abs() <= tol,
+                            "{dist:?} n={n} c={c:?} sum {k}: {} vs {}",
+                            got[k],
+                            want[k]
+                        );
+                    }
+                }
+            }
+        }
+    }
+}

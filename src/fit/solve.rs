@@ -1,0 +1,151 @@
+//! Stage 3 of a fit: the local method from the initialisation's candidates, on a subsample
+//! and then on every row, and the distinct basins polished.
+
+use super::init::global_init;
+use super::setup::Layout;
+use super::*;
+
+/// What the search found and what it cost.
+pub(super) struct Search {
+    pub(super) sol: Solution,
+    pub(super) robust: Robust,
+    /// The ≤ 2,000-rows-per-channel subsample the candidates were refined on, if any.
+    pub(super) sub: Option<BrdfProblem>,
+    pub(super) refine_limits: Limits,
+    pub(super) iterations: usize,
+    pub(super) evaluations: usize,
+}
+
+/// Step 4: global initialisation, candidates refined on a subsample, the distinct basins near
+/// the best polished on every row (robust loss, if any, on that last stage).
+pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Search {
+    use rayon::prelude::*;
+    let sub = (full.rows.len() > 2_000 * full.layout.len()).then(|| full.subsample(2_000));
+    let work = sub.as_ref().unwrap_or(full);
+    let mut candidates: Vec<Vec<f64>> = Vec::new();
+    if !opts.local_only {
+        candidates.extend(global_init(full, &lay.specs, opts));
+    }
+    if !opts.start.is_empty() || candidates.is_empty() {
+        candidates.push(start_vector(full, &lay.specs, &lay.names, &opts.start));
+    }
+    // On a subsample only the basin matters: the polish on every row sets the final accuracy.
+    let refine_limits = if sub.is_some() {
+        Limits {
+            ftol: opts.limits.ftol.max(1e-8),
+            ..opts.limits
+        }
+    } else {
+        opts.limits
+    };
+    let mut sols: Vec<Solution> = candidates
+        .par_iter()
+        .map(|x0| lsq::solve(work, x0, opts.method, Robust::None, &refine_limits))
+        .collect();
+    let mut iterations: usize = sols.iter().map(|s| s.iterations).sum();
+    let mut evaluations: usize = sols.iter().map(|s| s.evaluations).sum();
+    sols.sort_by(|a, b| a.cost.total_cmp(&b.cost));
+    let robust = match opts.robust {
+        None => Robust::None,
+        Some(kind) => {
+            let delta = robust_scale(full, &sols[0].x);
+            match kind {
+                RobustKind::Huber => Robust::Huber(delta),
+                RobustKind::Cauchy => Robust::Cauchy(delta),
+            }
+        }
+    };
+    let sol = if sub.is_some() || robust != Robust::None {
+        // A subsample's cost tells basins apart only to within its sampling noise: every
+        // distinct basin whose subsample cost is near the best is polished on every row.
+        let polished: Vec<Solution> = distinct_basins(&sols)
+            .par_iter()
+            .map(|s| lsq::solve(full, &s.x, opts.method, robust, &opts.limits))
+            .collect();
+        iterations += polished.iter().map(|s| s.iterations).sum::<usize>();
+        evaluations += polished.iter().map(|s| s.evaluations).sum::<usize>();
+        polished
+            .into_iter()
+            .min_by(|a, b| a.cost.total_cmp(&b.cost))
+            .expect("at least one candidate")
+    } else {
+        sols.swap_remove(0)
+    };
+    Search {
+        sol,
+        robust,
+        sub,
+        refine_limits,
+        iterations,
+        evaluations,
+    }
+}
+
+/// Solutions of distinct basins (apart by more than 1e-3 in some solver variable, relative to
+/// its magnitude or 1) whose cost on `work` is within [`CONTENDER_RATIO`] of the
+/// best, best first, at most 3. `sols` is sorted by cost.
+pub(super) fn distinct_basins(sols: &[Solution]) -> Vec<&Solution> {
+    let best = sols[0].cost;
+    let mut out: Vec<&Solution> = Vec::new();
+    for s in sols {
+        if out.len() == 3 || !(s.cost <= best * CONTENDER_RATIO) {
+            break;
+        }
+        let same = out.iter().any(|o| {
+            o.x.iter()
+                .zip(&s.x)
+                .all(|(a, b)| (a - b).abs() <= 1e-3 * a.abs().max(b.abs()).max(1.0))
+        });
+        if !same {
+            out.push(s);
+        }
+    }
+    out
+}
+
+/// Candidates whose subsample cost is within this factor of the best are polished on every
+/// row (a subsample ranks basins only to within its sampling noise).
+pub(super) const CONTENDER_RATIO: f64 = 1.5;
+
+/// Robust threshold from the residuals at `x`: 1.345 · 1.4826 · median |r|.
+pub(super) fn robust_scale(p: &BrdfProblem, x: &[f64]) -> f64 {
+    let Some(prep) = p.prepare(x) else {
+        return 1.0;
+    };
+    let mut r: Vec<f64> = (0..p.n_residuals())
+        .map(|i| p.residual(&prep, i).abs())
+        .collect();
+    let mid = r.len() / 2;
+    let med = *r.select_nth_unstable_by(mid, f64::total_cmp).1;
+    (1.345 * 1.4826 * med).max(1e-12)
+}
+
+/// The default or user start as solver variables (a per-channel variable `ps_r` takes a
+/// start given for `ps_r` or for `ps`).
+pub(super) fn start_vector(
+    p: &BrdfProblem,
+    specs: &[&ParamSpec],
+    var_names: &[String],
+    start: &[(String, f64)],
+) -> Vec<f64> {
+    (0..specs.len())
+        .map(|k| {
+            let v = start
+                .iter()
+                .rev()
+                .find(|(n, _)| n == specs[k].name || *n == var_names[k])
+                .map_or(specs[k].start, |(_, v)| *v);
+            p.transforms[k].invert(v)
+        })
+        .collect()
+}
+
+/// A random start in solver variables: each parameter drawn from its declared
+/// [`ParamSpec::random`] range, log-uniformly when both ends are positive.
+pub fn random_start(p: &BrdfProblem, specs: &[&ParamSpec], rng: &mut impl rand::Rng) -> Vec<f64> {
+    specs
+        .iter()
+        .enumerate()
+        .map(|(k, s)| p.transforms[k].invert(s.random_value(rng)))
+        .collect()
+}
