@@ -670,6 +670,9 @@ impl Reference {
     }
 }
 
+/// One candidate of a case: its row, the image judged, its ꟻLIP map and its progress line.
+type Candidate = (ModelRow, Image, Vec<f32>, String);
+
 /// One lighting case: the reference render, the scene-weighted samples, and each candidate's
 /// fit, render and image error.
 fn run_case(
@@ -703,7 +706,7 @@ fn run_case(
     let mut flip_maps = Vec::new();
     // Each candidate's fit, renders and judgement in parallel (every step is deterministic);
     // the progress lines and rows follow in candidate order.
-    let done: Vec<Result<(ModelRow, Image, Vec<f32>, String), crate::fit::FitError>> = opts
+    let done: Vec<Result<Candidate, crate::fit::FitError>> = opts
         .candidates
         .par_iter()
         .enumerate()

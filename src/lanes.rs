@@ -87,7 +87,7 @@ pub fn ln_1p(y: &[f64; LANES]) -> ([f64; LANES], [f64; LANES]) {
 pub fn exp(x: &[f64; LANES]) -> [f64; LANES] {
     const LN2_HI: f64 = 6.931_471_803_691_238_164_90e-01;
     const LN2_LO: f64 = 1.908_214_929_270_587_700_02e-10;
-    const INV_LN2: f64 = 1.442_695_040_888_963_387_00e+00;
+    const INV_LN2: f64 = std::f64::consts::LOG2_E;
     const P1: f64 = 1.666_666_666_666_660_190_37e-01;
     const P2: f64 = -2.777_777_777_701_559_338_42e-03;
     const P3: f64 = 6.613_756_321_437_934_361_17e-05;

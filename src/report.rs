@@ -35,7 +35,10 @@ pub struct ReportOptions {
 /// A progress hook: called with (work done, total work, what runs now), the work counted in
 /// [`STAGE_WEIGHTS`] units (each stage's rough share of a file's time).
 #[derive(Clone)]
-pub struct Progress(pub std::sync::Arc<dyn Fn(u64, u64, &str) + Send + Sync>);
+pub struct Progress(pub std::sync::Arc<ProgressFn>);
+
+/// The function behind [`Progress`].
+pub type ProgressFn = dyn Fn(u64, u64, &str) + Send + Sync;
 
 impl std::fmt::Debug for Progress {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
