@@ -1,6 +1,7 @@
 //! Torrance–Sparrow fits of synthetic Blinn MgO data (hemisphere, 1 % noise, log loss) at
 //! 10k, 100k and 1M samples (the 1M fit also without the range profiling); and every method,
-//! brdfit's and argmin's, on the same 10k and 100k inputs (no profiling), side by side.
+//! brdfit's and argmin's, on the same 10k and 100k inputs (no profiling), side by side; and
+//! every model on a bundled real file and on 10k and 1M samples of its own fit.
 //!
 //! Run: `cargo bench --bench fit`. The side-by-side comparison with scipy is
 //! `benches/compare_scipy.sh`.
@@ -62,5 +63,36 @@ fn methods(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench, methods);
+/// Every model (each Torrance–Sparrow distribution separately), default pipeline and log loss:
+/// on the bundled MERL alumina-oxide table (green, 16,512 samples), then on 10k and 1M
+/// synthetic samples drawn from that model's own fit (hemisphere, 1 % noise).
+fn models(c: &mut Criterion) {
+    let full = brdfit::load(
+        std::path::Path::new("data/merl-alumina-oxide.csv"),
+        &brdfit::LoadOptions::default(),
+    )
+    .expect("data/merl-alumina-oxide.csv (run from the checkout)");
+    let (real, _) = brdfit::data::representative_channel(&full).expect("a channel");
+    let mut g = c.benchmark_group("fit_models");
+    g.sample_size(10).measurement_time(Duration::from_secs(3));
+    for (kind, dist) in brdfit::model::catalogue() {
+        let mut o = FitOptions::new(kind);
+        o.dist = dist;
+        o.profile = false;
+        let name = fit::fit(&real, &o).unwrap()[0].label().replace(' ', "");
+        g.bench_function(format!("{name}/merl-alumina-oxide"), |b| {
+            b.iter(|| fit::fit(&real, &o).unwrap())
+        });
+        let truth = fit::fit(&real, &o).unwrap()[0].model_for(0);
+        for n in [10_000usize, 1_000_000] {
+            let ds = simulate(&truth, &Grid::Hemisphere(n).directions(1), 0.01, 1);
+            g.bench_function(format!("{name}/{n}"), |b| {
+                b.iter(|| fit::fit(&ds, &o).unwrap())
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench, methods, models);
 criterion_main!(benches);

@@ -26,6 +26,7 @@ use crate::render::measured::{Dims, Tabulated};
 use crate::render::scene::{Lighting, fig7_scene};
 use crate::render::{Image, Scene};
 use glam::DVec3;
+use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -626,9 +627,10 @@ pub fn choose(
     progress: &dyn Fn(&str),
 ) -> Result<(ChooseResult, Vec<CaseImages>), crate::fit::FitError> {
     // Global fits: the comparison the report already makes, and the fill of empty cells.
+    // The candidates in parallel (each fit is deterministic, so the order of work is free).
     let global = opts
         .candidates
-        .iter()
+        .par_iter()
         .map(|&(kind, dist)| fit_one(ds, kind, dist, opts.verify))
         .collect::<Result<Vec<_>, _>>()?;
     let reference = Reference::new(ds, &global);
@@ -741,6 +743,9 @@ impl Reference {
     }
 }
 
+/// One candidate of a case: its row, the image judged, its ꟻLIP map and its progress line.
+type Candidate = (ModelRow, Image, Vec<f32>, String);
+
 /// One lighting case: the reference render, the scene-weighted samples, and each candidate's
 /// fit, render and image error.
 fn run_case(
@@ -772,65 +777,79 @@ fn run_case(
     let mut rows = Vec::new();
     let mut renders = vec![(reference.name(), ref_img.clone())];
     let mut flip_maps = Vec::new();
-    for (k, &(kind, dist)) in opts.candidates.iter().enumerate() {
-        let t = Instant::now();
-        // Nothing lit: the global fit stands in (every model renders black there).
-        let fitted = if samples.is_empty() {
-            global[k].clone()
-        } else {
-            let log_fit = fit_one(&samples, kind, dist, opts.verify)?;
-            let g = global[k].model_for(0);
-            refit_on_pixels(&samples, log_fit, &g, exposure(&case.scene), opts.verify)
-        };
-        let fit_seconds = t.elapsed().as_secs_f64();
-        let (img, render_seconds) = render_with(&case.scene, material(fitted.model_for(0), None));
-        let (global_img, _) = render_with(&case.scene, material(global[k].model_for(0), None));
-        let scene_fit = Judged::new(&ref_img, img, &mask, fitted.usable());
-        let global_fit = Judged::new(&ref_img, global_img, &mask, global[k].usable());
-        let scene_p99 = scene_fit.flip.p99;
-        let global_p99 = global_fit.flip.p99;
-        let used = used_fit(&scene_fit, &global_fit, opts.threshold.metric);
-        let judged = match used {
-            FitUsed::SceneWeighted => scene_fit,
-            FitUsed::Global => global_fit,
-        };
-        let name = model_name(kind, dist);
-        progress(&format!(
-            "{}: {name}: ꟻLIP p99 {scene_p99:.3} scene-weighted fit{}, {global_p99:.3} global \
-             fit{}; the {} fit judged",
-            case.name,
-            if fitted.usable() { "" } else { " (not usable)" },
-            if global[k].usable() {
-                ""
+    // Each candidate's fit, renders and judgement in parallel (every step is deterministic);
+    // the progress lines and rows follow in candidate order.
+    let done: Vec<Result<Candidate, crate::fit::FitError>> = opts
+        .candidates
+        .par_iter()
+        .enumerate()
+        .map(|(k, &(kind, dist))| {
+            let t = Instant::now();
+            // Nothing lit: the global fit stands in (every model renders black there).
+            let fitted = if samples.is_empty() {
+                global[k].clone()
             } else {
-                " (not usable)"
-            },
-            used.name()
-        ));
-        rows.push(ModelRow {
-            model: name.clone(),
-            distribution: dist,
-            used,
-            params: fitted.params.clone(),
-            global_params: global[k].params.clone(),
-            bic: global[k].bic,
-            flip_mean: compare::summarise(&judged.map, &[], FLIP_LEVEL).mean,
-            flip_p99: judged.flip.p99,
-            flip_above: judged.flip.above,
-            delta_e_itp_mean: judged.delta_e.mean,
-            delta_e_itp_p99: judged.delta_e.p99,
-            rmse: judged.rmse,
-            scene_flip_p99: scene_p99,
-            global_flip_p99: global_p99,
-            fit_seconds,
-            render_seconds,
-            rays: judged.image.total_rays(),
-            usable: judged.usable,
-            unusable: fitted.unusable.clone(),
-            global_unusable: global[k].unusable.clone(),
-        });
-        renders.push((name, judged.image));
-        flip_maps.push(judged.map);
+                let log_fit = fit_one(&samples, kind, dist, opts.verify)?;
+                let g = global[k].model_for(0);
+                refit_on_pixels(&samples, log_fit, &g, exposure(&case.scene), opts.verify)
+            };
+            let fit_seconds = t.elapsed().as_secs_f64();
+            let (img, render_seconds) =
+                render_with(&case.scene, material(fitted.model_for(0), None));
+            let (global_img, _) = render_with(&case.scene, material(global[k].model_for(0), None));
+            let scene_fit = Judged::new(&ref_img, img, &mask, fitted.usable());
+            let global_fit = Judged::new(&ref_img, global_img, &mask, global[k].usable());
+            let scene_p99 = scene_fit.flip.p99;
+            let global_p99 = global_fit.flip.p99;
+            let used = used_fit(&scene_fit, &global_fit, opts.threshold.metric);
+            let judged = match used {
+                FitUsed::SceneWeighted => scene_fit,
+                FitUsed::Global => global_fit,
+            };
+            let name = model_name(kind, dist);
+            let line = format!(
+                "{}: {name}: ꟻLIP p99 {scene_p99:.3} scene-weighted fit{}, {global_p99:.3} global \
+                 fit{}; the {} fit judged",
+                case.name,
+                if fitted.usable() { "" } else { " (not usable)" },
+                if global[k].usable() {
+                    ""
+                } else {
+                    " (not usable)"
+                },
+                used.name()
+            );
+            let row = ModelRow {
+                model: name.clone(),
+                distribution: dist,
+                used,
+                params: fitted.params.clone(),
+                global_params: global[k].params.clone(),
+                bic: global[k].bic,
+                flip_mean: compare::summarise(&judged.map, &[], FLIP_LEVEL).mean,
+                flip_p99: judged.flip.p99,
+                flip_above: judged.flip.above,
+                delta_e_itp_mean: judged.delta_e.mean,
+                delta_e_itp_p99: judged.delta_e.p99,
+                rmse: judged.rmse,
+                scene_flip_p99: scene_p99,
+                global_flip_p99: global_p99,
+                fit_seconds,
+                render_seconds,
+                rays: judged.image.total_rays(),
+                usable: judged.usable,
+                unusable: fitted.unusable.clone(),
+                global_unusable: global[k].unusable.clone(),
+            };
+            Ok((row, judged.image, judged.map, line))
+        })
+        .collect();
+    for d in done {
+        let (row, image, map, line) = d?;
+        progress(&line);
+        renders.push((row.model.clone(), image));
+        rows.push(row);
+        flip_maps.push(map);
     }
     let (chosen, closest) = pick(&rows, opts.threshold);
     Ok((

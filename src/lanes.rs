@@ -79,6 +79,53 @@ pub fn ln_1p(y: &[f64; LANES]) -> ([f64; LANES], [f64; LANES]) {
     (out, iu)
 }
 
+/// e^x of each lane (fdlibm `__ieee754_exp`: x = k ln2 + r, |r| ≤ ½ ln2, with ln2 in two
+/// parts; e^r = 1 + r + r c/(2 − c), c = r − r² P(r²); e^x = 2^k e^r). k is rounded to
+/// nearest by adding and subtracting 1.5 · 2^52, whose bit pattern then holds k. Lanes outside
+/// [−708, 709] (where 2^k would not be a normal number) or not finite get [`f64::exp`].
+#[inline(always)]
+pub fn exp(x: &[f64; LANES]) -> [f64; LANES] {
+    const LN2_HI: f64 = 6.931_471_803_691_238_164_90e-01;
+    const LN2_LO: f64 = 1.908_214_929_270_587_700_02e-10;
+    const INV_LN2: f64 = std::f64::consts::LOG2_E;
+    const P1: f64 = 1.666_666_666_666_660_190_37e-01;
+    const P2: f64 = -2.777_777_777_701_559_338_42e-03;
+    const P3: f64 = 6.613_756_321_437_934_361_17e-05;
+    const P4: f64 = -1.653_390_220_546_525_153_90e-06;
+    const P5: f64 = 4.138_136_797_057_238_460_39e-08;
+    const SHIFT: f64 = 6_755_399_441_055_744.0;
+    let mut out = [0.0f64; LANES];
+    let mut bad = false;
+    for l in 0..LANES {
+        let v = x[l];
+        bad |= !(-708.0..=709.0).contains(&v);
+        // Out-of-range lanes are computed at 0 and replaced below.
+        let v = if (-708.0..=709.0).contains(&v) {
+            v
+        } else {
+            0.0
+        };
+        let t = v * INV_LN2 + SHIFT;
+        let kf = t - SHIFT;
+        let k = (t.to_bits() as i64).wrapping_sub(SHIFT.to_bits() as i64);
+        let hi = v - kf * LN2_HI;
+        let lo = kf * LN2_LO;
+        let r = hi - lo;
+        let z = r * r;
+        let c = r - z * (P1 + z * (P2 + z * (P3 + z * (P4 + z * P5))));
+        let y = 1.0 - ((lo - (r * c) / (2.0 - c)) - hi);
+        out[l] = y * f64::from_bits(((k + 1023) as u64) << 52);
+    }
+    if bad {
+        for l in 0..LANES {
+            if !(-708.0..=709.0).contains(&x[l]) {
+                out[l] = x[l].exp();
+            }
+        }
+    }
+    out
+}
+
 /// (sin x, cos x) of each lane: x = jπ/2 + r with a Cody–Waite reduction in three parts, then
 /// fdlibm's kernel polynomials for sin r and cos r, and the quadrant j mod 4 picks the signs.
 /// Lanes with |x| ≥ 2²⁰ π/2 (or not finite) get [`f64::sin_cos`].
@@ -178,6 +225,49 @@ mod tests {
             }
         }
         assert!(worst <= 1.0, "worst ln error {worst} ulp");
+    }
+
+    #[test]
+    fn exp_matches_the_standard_library() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(8);
+        let mut worst: f64 = 0.0;
+        for _ in 0..20_000 {
+            let mut x = [0.0; LANES];
+            for v in x.iter_mut() {
+                // The whole range, plus values near 0 and near the reduction's half-way points.
+                *v = match rng.random_range(0..3) {
+                    0 => rng.random_range(-750.0..750.0),
+                    1 => rng.random_range(-1e-6..1e-6),
+                    _ => rng.random_range(-40.0..40.0),
+                };
+            }
+            let y = exp(&x);
+            for l in 0..LANES {
+                worst = worst.max(ulps(y[l], x[l].exp()));
+            }
+        }
+        assert!(worst <= 1.0, "worst exp error {worst} ulp");
+        let odd = [
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            -745.5,
+            710.0,
+            0.0,
+            -0.0,
+            1.0,
+        ];
+        let y = exp(&odd);
+        for l in 0..LANES {
+            let want = odd[l].exp();
+            assert!(
+                y[l] == want || (y[l].is_nan() && want.is_nan()) || ulps(y[l], want) <= 1.0,
+                "exp({}) = {} not {want}",
+                odd[l],
+                y[l]
+            );
+        }
+        assert!(ulps(exp(&[1.0; LANES])[0], std::f64::consts::E) <= 1.0);
     }
 
     #[test]

@@ -27,7 +27,35 @@ pub struct ReportOptions {
     pub render_res: u32,
     /// Progress messages on stderr.
     pub verbose: bool,
+    /// Told each stage as it starts (instead of the messages on stderr), e.g. to draw a
+    /// progress bar.
+    pub progress: Option<Progress>,
 }
+
+/// A progress hook: called with (work done, total work, what runs now), the work counted in
+/// [`STAGE_WEIGHTS`] units (each stage's rough share of a file's time).
+#[derive(Clone)]
+pub struct Progress(pub std::sync::Arc<ProgressFn>);
+
+/// The function behind [`Progress`].
+pub type ProgressFn = dyn Fn(u64, u64, &str) + Send + Sync;
+
+impl std::fmt::Debug for Progress {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Progress")
+    }
+}
+
+/// The stages of one file's section, in order, with their rough relative cost (measured on
+/// data/: the fits, `choose` and the studies dominate). Blinn's figures at the end count 1.
+pub const STAGE_WEIGHTS: [(&str, u64); 6] = [
+    ("loading", 1),
+    ("fitting", 6),
+    ("plots", 2),
+    ("renders", 2),
+    ("what each scene needs", 6),
+    ("studies", 10),
+];
 
 /// The bundled data files: `data/*.csv`, `data/*.astm`, `data/*.brdf`, `data/*.binary`, sorted.
 pub fn bundled_files(dir: &Path) -> Vec<PathBuf> {
@@ -234,6 +262,8 @@ struct DataSet<'a> {
     root: &'a Path,
     /// The report options.
     opts: &'a ReportOptions,
+    /// This file's place among the report's files: (index, count), for the progress hook.
+    place: (usize, usize),
 }
 
 /// Write the report for `files` into `opts.out`: index.html, report.md, results.json,
@@ -247,12 +277,12 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
     let mut timings = serde_json::Map::new();
     let mut toc = Vec::new();
     let mut summary = Vec::new();
-    for file in files {
+    for (fi, file) in files.iter().enumerate() {
         let t0 = Instant::now();
         let name = file
             .file_stem()
             .map_or("data".into(), |s| s.to_string_lossy().into_owned());
-        say(opts, &format!("{name}: loading"));
+        stage(opts, fi, files.len(), 0, &format!("{name}: loading"));
         let full = data::load(file, &LoadOptions::default())?;
         let (ds, channel_note) = data::representative_channel(&full).map_err(anyhow::Error::msg)?;
         toc.push((name.clone(), name.clone()));
@@ -268,27 +298,34 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
             ds,
             root,
             opts,
+            place: (fi, files.len()),
         };
         let mut tm = serde_json::Map::new();
-        say(opts, &format!("{name}: fitting"));
+        stage(opts, fi, files.len(), 1, &format!("{name}: fitting"));
         let (fits, rec, recommended) = model_comparison(&mut doc, &set, file, &mut tm)?;
         let ts_i = ts_index(&fits);
         parameters(&mut doc, &set, &fits, ts_i, rec)?;
         results.push(json!({ "file": file.display().to_string(), "channel": channel_note, "recommended": recommended, "fits": fits.iter().map(fit_json).collect::<Vec<_>>() }));
-        say(opts, &format!("{name}: plots"));
+        stage(opts, fi, files.len(), 2, &format!("{name}: plots"));
         let t = Instant::now();
         plots(&mut doc, &set, &fits, ts_i, rec)?;
         tm.insert("plots".into(), json!(t.elapsed().as_secs_f64()));
-        say(opts, &format!("{name}: renders"));
+        stage(opts, fi, files.len(), 3, &format!("{name}: renders"));
         let t = Instant::now();
         renders(&mut doc, &set, &fits[ts_i])?;
         tm.insert("renders".into(), json!(t.elapsed().as_secs_f64()));
-        say(opts, &format!("{name}: what each scene needs"));
+        stage(
+            opts,
+            fi,
+            files.len(),
+            4,
+            &format!("{name}: what each scene needs"),
+        );
         let t = Instant::now();
         let needs = scene_needs(&mut doc, &set)?;
         summary.push(summary_row(&set, &channel_note, &fits, rec, &needs));
         tm.insert("choose".into(), json!(t.elapsed().as_secs_f64()));
-        say(opts, &format!("{name}: studies"));
+        stage(opts, fi, files.len(), 5, &format!("{name}: studies"));
         let t = Instant::now();
         studies(&mut doc, &set, &fits[ts_i], &mut tm)?;
         tm.insert("studies".into(), json!(t.elapsed().as_secs_f64()));
@@ -296,6 +333,9 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
         timings.insert(name.clone(), Value::Object(tm));
     }
     // Blinn's figures after the user's data.
+    let per: u64 = STAGE_WEIGHTS.iter().map(|s| s.1).sum();
+    let total = files.len() as u64 * per + 1;
+    say(opts, total - 1, total, "Blinn's figures 5–7");
     let t = Instant::now();
     let mut blinn = Doc::default();
     blinn_figures(&mut blinn, root, opts)?;
@@ -356,9 +396,30 @@ fn summary_row(
     ]
 }
 
-fn say(opts: &ReportOptions, m: &str) {
-    if opts.verbose {
-        eprintln!("report: {m}");
+/// Announce stage `k` ([`STAGE_WEIGHTS`]) of file `f` of `n`.
+fn stage(opts: &ReportOptions, f: usize, n: usize, k: usize, what: &str) {
+    let per: u64 = STAGE_WEIGHTS.iter().map(|s| s.1).sum();
+    let done = f as u64 * per + STAGE_WEIGHTS[..k].iter().map(|s| s.1).sum::<u64>();
+    say(opts, done, n as u64 * per + 1, what);
+}
+
+/// A step inside stage `k` of a file's section, e.g. one study.
+fn step(set: &DataSet, k: usize, what: &str) {
+    stage(
+        set.opts,
+        set.place.0,
+        set.place.1,
+        k,
+        &format!("{}: {what}", set.name),
+    );
+}
+
+/// What runs now: to the progress hook, else on stderr when verbose.
+fn say(opts: &ReportOptions, done: u64, total: u64, m: &str) {
+    match &opts.progress {
+        Some(p) => (p.0)(done, total, m),
+        None if opts.verbose => eprintln!("report: {m}"),
+        None => {}
     }
 }
 
@@ -684,7 +745,11 @@ fn scene_needs(doc: &mut Doc, set: &DataSet) -> Result<Vec<String>> {
         &set.ds,
         &crate::choose::fig7_cases(CHOOSE_RES),
         &crate::choose::ChooseOptions::default(),
-        &|_| {},
+        &|m| {
+            if set.opts.progress.is_some() {
+                step(set, 4, m)
+            }
+        },
     )?;
     let out = root.join(dir).join("choose");
     crate::choose::write(&out, &r, &images)?;
@@ -746,6 +811,7 @@ fn studies(
     let m = ts.model_for(0);
     doc.h(3, "Speed against accuracy", &format!("{name}-speed"));
     let truth = study::parse_truth(ds);
+    step(set, 5, "studies: speed against accuracy");
     let rows = study::speed_accuracy(ds, truth.as_ref(), 1);
     let chart = study::speed_chart(
         &format!("{name}: cost against fit time, every method × model"),
@@ -809,6 +875,7 @@ fn studies(
     let reference = truth
         .filter(|m| m.kind == ModelKind::TorranceSparrow)
         .unwrap_or(m);
+    step(set, 5, "studies: stability from random starts");
     let srows = study::stability(&reference, opts.stability_starts, 600, 1);
     let chart = study::stability_chart(
         &format!(

@@ -15,6 +15,7 @@ fn run(out: &Path) {
             stability_starts: 1,
             render_res: 32,
             verbose: false,
+            progress: None,
         },
     )
     .unwrap();

@@ -112,20 +112,27 @@ pub(crate) fn run_choose(a: ChooseArgs) -> Result<()> {
     };
     let quiet = quiet();
     let t = std::time::Instant::now();
-    let (result, images) = choose::choose(
-        &ds,
-        &cases,
-        &choose::ChooseOptions {
-            threshold,
-            verify: a.verify,
-            ..Default::default()
-        },
-        &|line| {
+    let opts = choose::ChooseOptions {
+        threshold,
+        verify: a.verify,
+        ..Default::default()
+    };
+    // One step per progress line: the global fits, then per case its reference and each
+    // candidate. On a terminal the lines scroll above a bar with the time left.
+    let steps = 1 + cases.len() * (1 + opts.candidates.len());
+    let bar = progress_bar(steps as u64, "global fits of every model");
+    let (result, images) = choose::choose(&ds, &cases, &opts, &|line| {
+        if bar.is_hidden() {
             if !quiet {
                 eprintln!("{line}");
             }
-        },
-    )?;
+        } else {
+            bar.println(line);
+            bar.inc(1);
+            bar.set_message(line.split(':').next().unwrap_or("").to_string());
+        }
+    })?;
+    bar.finish_and_clear();
     let written = choose::write(&a.output, &result, &images)?;
     print(&choose::markdown(&result))?;
     wrote_all(&written);

@@ -118,7 +118,14 @@ pub(crate) fn progress_bar(len: u64, what: &str) -> indicatif::ProgressBar {
         return indicatif::ProgressBar::hidden();
     }
     let bar = indicatif::ProgressBar::new(len);
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "{elapsed:>4} [{wide_bar}] {percent:>3} % · {eta} left · {msg}",
+    ) {
+        bar.set_style(style.progress_chars("=> "));
+    }
     bar.set_message(what.to_string());
+    // Ticks keep the clock moving through a long step.
+    bar.enable_steady_tick(std::time::Duration::from_millis(250));
     bar
 }
 

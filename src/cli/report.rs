@@ -23,6 +23,17 @@ pub(crate) fn run_report(
         files
     };
     let t = std::time::Instant::now();
+    // A bar with the stage running and the time left, on a terminal only (else the stages are
+    // named line by line, or not at all with --quiet).
+    let bar = progress_bar(1, "report");
+    let progress = (!bar.is_hidden()).then(|| {
+        let bar = bar.clone();
+        brdfit::report::Progress(std::sync::Arc::new(move |done, total, what: &str| {
+            bar.set_length(total);
+            bar.set_position(done);
+            bar.set_message(what.to_string());
+        }))
+    });
     brdfit::report::report(
         &files,
         &brdfit::report::ReportOptions {
@@ -30,8 +41,10 @@ pub(crate) fn run_report(
             stability_starts: stability_starts as usize,
             render_res,
             verbose: !quiet,
+            progress,
         },
     )?;
+    bar.finish_and_clear();
     // The output folder if it was created; its sub-folders are counted with the files.
     announce_created(Some(output));
     // The four files a reader opens; the rest (charts, renders, CSV) are counted.

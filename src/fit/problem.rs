@@ -2,6 +2,8 @@
 //! their bounds hold by construction, residuals of the `log` or `linear` loss.
 
 use super::lsq::{Normal, Problem, Robust};
+#[path = "kernels.rs"]
+mod kernels;
 use crate::lanes::{self, LANES};
 use crate::model::{Distribution, Geometry, MAX_PARAMS, Model, ModelKind, ParamSpec, Scale};
 
@@ -706,6 +708,8 @@ impl Problem for BrdfProblem {
                     g[a][..4].copy_from_slice(&g4[a]);
                 }
                 cost
+            } else if let Some(lane) = kernels::Lane::of(model, robust, self.loss) {
+                kernels::rows_normal(lane, self.loss, &self.rows, lo..hi, model, &mut g, &mut gr)
             } else {
                 kernel_rows_any(
                     &self.rows,
@@ -746,6 +750,10 @@ impl Problem for BrdfProblem {
             let model = &prep.chans[c].0;
             if ts_d3_log_applies(self.loss, model, robust) {
                 s += ts_d3_log_cost(&self.rows, lo..hi, p4(model));
+                continue;
+            }
+            if let Some(lane) = kernels::Lane::of(model, robust, self.loss) {
+                s += kernels::rows_cost(lane, self.loss, &self.rows, lo..hi, model);
                 continue;
             }
             for i in lo..hi {
@@ -887,9 +895,6 @@ fn ts_d3_log_cost(rows: &Rows, range: std::ops::Range<usize>, p: [f64; 4]) -> f6
     ts_d3_log_body::<false>(rows, range, p, &mut [[0.0; 4]; 4], &mut [0.0; 4])
 }
 
-/// Sums of one lane kernel: Σ ½r², Jᵀr (4) and the upper triangle of JᵀJ (10).
-const SUMS: usize = 15;
-
 #[inline(always)]
 fn ts_d3_log_body<const JAC: bool>(
     rows: &Rows,
@@ -900,27 +905,8 @@ fn ts_d3_log_body<const JAC: bool>(
 ) -> f64 {
     let k = TsD3::new(p);
     let pd_pi = p[3] * std::f64::consts::FRAC_1_PI;
-    let mut acc = [[0.0f64; LANES]; SUMS];
-    let ones = [1.0f64; LANES];
     let cols = [&rows.nl, &rows.nh, &rows.eh, &rows.g_ne, &rows.target];
-    let mut i = range.start;
-    while i + LANES <= range.end {
-        let lane = |v: &Vec<f64>| -> [f64; LANES] { v[i..i + LANES].try_into().expect("block") };
-        let sw = if rows.weighted { lane(&rows.sw) } else { ones };
-        ts_d3_block::<JAC>(&k, pd_pi, &cols.map(lane), &sw, &mut acc);
-        i += LANES;
-    }
-    if i < range.end {
-        // The tail: lanes past the end repeat the last row with weight 0.
-        let len = range.end - i;
-        let pad = |v: &Vec<f64>| -> [f64; LANES] { std::array::from_fn(|l| v[i + l.min(len - 1)]) };
-        let sw: [f64; LANES] = std::array::from_fn(|l| match (l < len, rows.weighted) {
-            (false, _) => 0.0,
-            (true, true) => rows.sw[i + l],
-            (true, false) => 1.0,
-        });
-        ts_d3_block::<JAC>(&k, pd_pi, &cols.map(pad), &sw, &mut acc);
-    }
+    let acc = kernels::drive(rows, range, cols, &TsD3Block::<JAC>(k, pd_pi));
     let lane_sum = |k: usize| acc[k].iter().sum::<f64>();
     let mut t = 5;
     for a in 0..4 {
@@ -933,6 +919,16 @@ fn ts_d3_log_body<const JAC: bool>(
     lane_sum(0)
 }
 
+/// [`ts_d3_block`] with its parameters (D3 at fixed n, c3, ps; pd/π).
+struct TsD3Block<const JAC: bool>(TsD3, f64);
+
+impl<const JAC: bool> kernels::Block for TsD3Block<JAC> {
+    #[inline(always)]
+    fn run(&self, c: &[[f64; LANES]; 5], sw: &[f64; LANES], acc: &mut kernels::Acc) {
+        ts_d3_block::<JAC>(&self.0, self.1, c, sw, acc)
+    }
+}
+
 /// One block of [`LANES`] rows of [`ts_d3_log`]: columns nl, nh, eh, g_ne, target; √weight.
 #[inline(always)]
 fn ts_d3_block<const JAC: bool>(
@@ -940,7 +936,7 @@ fn ts_d3_block<const JAC: bool>(
     pd_pi: f64,
     c: &[[f64; LANES]; 5],
     sw: &[f64; LANES],
-    acc: &mut [[f64; LANES]; SUMS],
+    acc: &mut kernels::Acc,
 ) {
     let [nl, nh, eh, gn, tg] = c;
     let mut y = [0.0f64; LANES];
@@ -965,22 +961,9 @@ fn ts_d3_block<const JAC: bool>(
                 s * dy[2][l],
                 s * nl[l] * std::f64::consts::FRAC_1_PI,
             ];
-            accumulate_lane(acc, l, r, j);
+            kernels::accumulate_lane(acc, l, r, j);
         } else {
             acc[0][l] += 0.5 * r * r;
-        }
-    }
-}
-
-#[inline(always)]
-fn accumulate_lane(acc: &mut [[f64; LANES]; SUMS], l: usize, r: f64, j: [f64; 4]) {
-    acc[0][l] += 0.5 * r * r;
-    let mut t = 5;
-    for a in 0..4 {
-        acc[1 + a][l] += j[a] * r;
-        for b in a..4 {
-            acc[t][l] += j[a] * j[b];
-            t += 1;
         }
     }
 }
@@ -1025,34 +1008,7 @@ impl TsD3 {
         } else {
             0.0
         };
-        // Exact Fresnel, F = ½ (g−c)²/(g+c)² [1 + (c(g+c)−1)²/(c(g−c)+1)²], g = √(n² + c² − 1).
-        let cc = eh.clamp(0.0, 1.0);
-        let gg = (self.n2m1 + cc * cc).max(0.0).sqrt();
-        let gp = gg + cc;
-        let ok_f = gp > 0.0;
-        let gp = if ok_f { gp } else { 1.0 };
-        let gm = gg - cc;
-        let vv = cc * gm + 1.0;
-        // 1/(g+c), 1/(c(g−c)+1) and 1/g from one division (g = 0 only at n = 1, c = 0).
-        let ok_g = gg > 0.0;
-        let g1 = if ok_g { gg } else { 1.0 };
-        let inv = 1.0 / (gp * vv * g1);
-        let igp = vv * g1 * inv;
-        let iv = gp * g1 * inv;
-        let qf = gm * igp;
-        let a = qf * qf;
-        let t = (cc * gp - 1.0) * iv;
-        let b = t * t;
-        let f = if ok_f { 0.5 * a * (1.0 + b) } else { 1.0 };
-        // dA/dg = 4c(g−c)/(g+c)³, dB/dg = 4c(1−c²)u/v³, dg/dn = n/g.
-        let da = 4.0 * cc * qf * igp * igp;
-        let db = 4.0 * cc * (1.0 - cc * cc) * t * iv * iv;
-        let dn_dg = if ok_g { self.n * gp * vv * inv } else { 0.0 };
-        let df = if ok_f {
-            0.5 * (da * (1.0 + b) + a * db) * dn_dg
-        } else {
-            0.0
-        };
+        let (f, df) = kernels::fresnel(self.n, self.n2m1, eh);
         let w = g_ne * std::f64::consts::FRAC_1_PI;
         (d * f * w, [d * df * w, dd * f * w])
     }
