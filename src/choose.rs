@@ -30,6 +30,9 @@ use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
 
+mod verdict;
+pub use verdict::{FoldKind, ReferenceError, Verdict};
+
 /// An error key of [`ModelRow`] that a threshold can test.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -316,14 +319,38 @@ pub struct CaseResult {
     pub measured_share: f64,
     /// Wall time of the reference render (s).
     pub reference_render_seconds: f64,
+    /// `chosen`, `none` or `undetermined` (the reference's own error exceeds the threshold;
+    /// `chosen` is then null).
+    #[serde(default = "verdict_chosen")]
+    pub verdict: Verdict,
+    /// Why, in words a person can act on.
+    #[serde(default)]
+    pub reason: String,
+    /// The reference's own error, by cross-validation ([`verdict`]).
+    #[serde(default)]
+    pub reference_error: Option<ReferenceError>,
     /// One row per candidate.
     pub models: Vec<ModelRow>,
+}
+
+fn verdict_chosen() -> Verdict {
+    Verdict::Chosen
 }
 
 impl CaseResult {
     /// The answer in words: "phong is enough", or "no model is within the threshold; the
     /// closest is torrance-sparrow-d3".
     pub fn answer(&self) -> String {
+        if self.verdict == Verdict::Undetermined {
+            return format!(
+                "undetermined: the reference's own error, ꟻLIP p99 {:.3}, exceeds the threshold \
+                 (closest {})",
+                self.reference_error
+                    .as_ref()
+                    .map_or(f64::NAN, |e| e.flip_p99),
+                self.closest
+            );
+        }
         match &self.chosen {
             Some(m) => format!("{m} is enough"),
             None => format!(
@@ -370,6 +397,9 @@ pub struct CaseImages {
     pub renders: Vec<(String, Image)>,
     /// Per-candidate LDR-ꟻLIP maps (same order as `renders[1..]`).
     pub flip_maps: Vec<Vec<f32>>,
+    /// The reference's own error per pixel (the largest LDR-ꟻLIP over the cross-validation
+    /// folds).
+    pub reference_error_map: Vec<f32>,
     /// Object mask.
     pub mask: Vec<bool>,
 }
@@ -673,6 +703,10 @@ pub fn choose(
 /// its table would be the fill) the best global fit.
 struct Reference {
     table: Arc<Tabulated>,
+    /// The table rebuilt without parts of the data (cross-validation).
+    folds: Vec<verdict::Fold>,
+    /// The data's θi and azimuth slice spacing and largest θi (degrees).
+    spacing: (Option<f64>, Option<f64>, Option<f64>),
     fill: Model,
     fill_name: String,
     /// True when the table is the reference.
@@ -690,11 +724,22 @@ impl Reference {
             .unwrap_or(0);
         let fill = global[best].model_for(0);
         let t = Instant::now();
-        let table = Arc::new(Tabulated::resample(ds, Dims::for_samples(ds.len()), fill));
+        let dims = Dims::for_samples(ds.len());
+        let table = Arc::new(crate::render::reconstruct::reconstruct(ds, dims, fill));
         let seconds = t.elapsed().as_secs_f64();
+        let folds = verdict::fold_sets(ds)
+            .into_iter()
+            .map(|(name, kind, sub)| verdict::Fold {
+                name,
+                kind,
+                table: Arc::new(crate::render::reconstruct::reconstruct(&sub, dims, fill)),
+            })
+            .collect();
         let measured = table.fill_share() <= MAX_FILL_SHARE;
         Reference {
             table,
+            folds,
+            spacing: verdict::spacings(ds),
             fill,
             fill_name: model_name(global[best].model, global[best].dist),
             measured,
@@ -774,6 +819,35 @@ fn run_case(
         100.0 * measured_share,
         reference_seconds
     ));
+    // The reference's own error: each cross-validation fold rendered against it.
+    let mut reference_error_map = vec![0f32; ref_img.pixels.len()];
+    let (mut err_p99, mut err_mean, mut worst) = (0.0f64, 0.0f64, None);
+    for fold in &reference.folds {
+        let (img, _) = render_with(
+            &case.scene,
+            material(reference.fill, Some(fold.table.clone())),
+        );
+        let (f, map, _, _) = errors(&ref_img, &img, &mask);
+        let mean = compare::summarise(&map, &[], FLIP_LEVEL).mean;
+        if f.p99 > err_p99 || worst.is_none() {
+            worst = Some(fold.kind);
+        }
+        err_p99 = err_p99.max(f.p99);
+        err_mean = err_mean.max(mean);
+        for (a, b) in reference_error_map.iter_mut().zip(&map) {
+            *a = a.max(*b);
+        }
+    }
+    let reference_error = (!reference.folds.is_empty()).then(|| ReferenceError {
+        flip_p99: err_p99,
+        flip_mean: err_mean,
+        method: verdict::method(&reference.folds),
+    });
+    progress(&format!(
+        "{}: the reference's own error (cross-validation, {} folds): ꟻLIP p99 {err_p99:.3}, mean {err_mean:.4}",
+        case.name,
+        reference.folds.len()
+    ));
     let mut rows = Vec::new();
     let mut renders = vec![(reference.name(), ref_img.clone())];
     let mut flip_maps = Vec::new();
@@ -852,6 +926,28 @@ fn run_case(
         flip_maps.push(map);
     }
     let (chosen, closest) = pick(&rows, opts.threshold);
+    let err = match opts.threshold.metric {
+        Metric::FlipMean => err_mean,
+        _ => err_p99,
+    };
+    let (metric, limit) = match opts.threshold.metric {
+        Metric::FlipMean | Metric::FlipP99 => (opts.threshold.metric, opts.threshold.value),
+        _ => (DEFAULT_THRESHOLD.metric, DEFAULT_THRESHOLD.value),
+    };
+    let (verdict, reason) = verdict::verdict(
+        chosen.map(|i| rows[i].model.as_str()),
+        (
+            &rows[closest].model,
+            rows[closest].error(opts.threshold.metric),
+        ),
+        metric.key(),
+        limit,
+        if reference_error.is_some() { err } else { 0.0 },
+        worst,
+        reference.spacing,
+        1.0 - measured_share,
+    );
+    let chosen = chosen.filter(|_| verdict == Verdict::Chosen);
     Ok((
         CaseResult {
             case: case.name.clone(),
@@ -862,12 +958,16 @@ fn run_case(
             lit_pixels: lit,
             measured_share,
             reference_render_seconds: reference_seconds,
+            verdict,
+            reason,
+            reference_error,
             models: rows,
         },
         CaseImages {
             case: case.name.clone(),
             renders,
             flip_maps,
+            reference_error_map,
             mask,
         },
     ))
@@ -889,6 +989,11 @@ pub fn write(
         for (k, (name, img)) in imgs.renders.iter().enumerate() {
             let base = sub.join(if k == 0 { "measured" } else { name.as_str() });
             wrote.extend(crate::render::save(img, &base)?);
+        }
+        if case.verdict == Verdict::Undetermined {
+            let path = sub.join("reference-error.png");
+            write_bytes_atomic(&path, &reference_error_png(imgs, &result.threshold)?)?;
+            wrote.push(path);
         }
         let sheet = sub.join("sheet.png");
         write_bytes_atomic(&sheet, &contact_sheet(case, imgs, &result.threshold)?)?;
@@ -912,6 +1017,25 @@ pub fn write(
     write_bytes_atomic(&md, markdown(result).as_bytes())?;
     wrote.push(md);
     Ok(wrote)
+}
+
+/// The reference's own error per pixel as an sRGB PNG: magma from 0 to twice the threshold
+/// (ꟻLIP), the object's pixels only (others black).
+fn reference_error_png(imgs: &CaseImages, th: &ThresholdJson) -> anyhow::Result<Vec<u8>> {
+    let lut = nv_flip::magma_lut().to_vec();
+    let top = if th.metric.starts_with("flip") {
+        2.0 * th.value
+    } else {
+        0.1
+    } as f32;
+    let img = &imgs.renders[0].1;
+    let rgb: Vec<u8> = imgs
+        .reference_error_map
+        .iter()
+        .zip(&imgs.mask)
+        .flat_map(|(&e, &m)| if m { magma(&lut, e, top) } else { [0, 0, 0] })
+        .collect();
+    crate::plot::encode_png(img.width, img.height, &rgb)
 }
 
 /// The answer as Markdown: per case, the choice and one row per model.
@@ -944,6 +1068,14 @@ pub fn markdown(r: &ChooseResult) -> String {
             c.configurations,
             100.0 * c.measured_share
         );
+        let _ = writeln!(s, "Verdict: **{}**: {}.\n", c.verdict.name(), c.reason);
+        if let Some(e) = &c.reference_error {
+            let _ = writeln!(
+                s,
+                "The reference's own error: ꟻLIP p99 {:.3}, mean {:.4} ({}).\n",
+                e.flip_p99, e.flip_mean, e.method
+            );
+        }
         s.push_str(&case_table(c, true));
         s.push('\n');
     }
@@ -1061,7 +1193,7 @@ fn contact_sheet(
     th: &ThresholdJson,
 ) -> anyhow::Result<Vec<u8>> {
     use plotters::prelude::*;
-    let (tile, gap, label_h, top) = (256u32, 14u32, 40u32, 44u32);
+    let (tile, gap, label_h, top) = (256u32, 14u32, 40u32, 64u32);
     let cols = 4u32;
     let n = imgs.renders.len() as u32;
     let rows = n.div_ceil(cols);
@@ -1148,6 +1280,14 @@ fn contact_sheet(
             12,
             20.0,
         ))?;
+        // The verdict's reason, on one line (cut where the sheet ends).
+        let width = (w as usize - 2 * gap as usize) / 7;
+        let reason: String = if case.reason.chars().count() > width {
+            case.reason.chars().take(width - 1).chain(['…']).collect()
+        } else {
+            case.reason.clone()
+        };
+        e(text(reason, gap, 38, 13.0))?;
         for k in 0..n {
             let (x0, y0) = origin(k);
             if k == 0 {
@@ -1277,8 +1417,9 @@ impl crate::plot::Chart for TradeoffChart {
         let mut chart = ChartBuilder::on(root)
             .caption(
                 format!(
-                    "{} lit: image error against fit + render time",
-                    self.case.case
+                    "{} lit: image error against fit + render time (verdict: {})",
+                    self.case.case,
+                    self.case.verdict.name()
                 ),
                 ("sans-serif", 18),
             )

@@ -767,6 +767,7 @@ fn scene_needs(doc: &mut Doc, set: &DataSet) -> Result<Vec<String>> {
     for c in &r.cases {
         let answer = format!("{} lit: {}.", c.case, c.answer());
         doc.p(&answer);
+        doc.p(&format!("Verdict: {}: {}.", c.verdict.name(), c.reason));
         let sheet = format!("{dir}/choose/{}/sheet.png", c.case);
         doc.figure(
             &sheet,
@@ -795,6 +796,9 @@ fn scene_needs(doc: &mut Doc, set: &DataSet) -> Result<Vec<String>> {
         .iter()
         .map(|c| match &c.chosen {
             Some(m) => m.clone(),
+            None if c.verdict == crate::choose::Verdict::Undetermined => {
+                format!("undetermined (closest {})", c.closest)
+            }
             None => format!("none (closest {})", c.closest),
         })
         .collect())

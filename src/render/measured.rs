@@ -63,12 +63,41 @@ pub fn coordinates(g: &Geometry) -> [f64; 3] {
     ]
 }
 
+/// How a table's cell values combine with the fill model at a lookup.
+#[derive(Clone)]
+pub enum Lookup {
+    /// f = f_fill + residual (the cells hold f_data − f_fill).
+    Residual,
+    /// f = (f_fill + δ)·e^v − δ, at least 0 (the cells hold v = ln((f_data + δ)/(f_fill + δ)),
+    /// see [`crate::render::reconstruct`]).
+    Ratio {
+        /// The floor δ added to both f_data and f_fill (f_r units).
+        delta: f64,
+    },
+    /// An exact BRDF evaluated at every lookup (a truth such as a Neural-BRDF network); the
+    /// cells are unused.
+    Exact(std::sync::Arc<dyn Fn(&Geometry) -> f64 + Send + Sync>),
+}
+
+impl std::fmt::Debug for Lookup {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Lookup::Residual => write!(f, "Residual"),
+            Lookup::Ratio { delta } => write!(f, "Ratio {{ delta: {delta} }}"),
+            Lookup::Exact(_) => write!(f, "Exact"),
+        }
+    }
+}
+
 /// A measured BRDF (one channel) on a half/difference table, ready for rendering.
 #[derive(Clone, Debug)]
 pub struct Tabulated {
     /// Table size.
     pub dims: Dims,
-    /// Residual f_data − f_fill at each cell centre, φd fastest, then θd, then θh.
+    /// How cell values combine with the fill model.
+    pub lookup: Lookup,
+    /// Residual f_data − f_fill (or log ratio, by `lookup`) at each cell centre, φd fastest,
+    /// then θd, then θh.
     values: Vec<f32>,
     /// Cells with no sample near enough (residual 0: the model).
     filled: Vec<bool>,
@@ -154,11 +183,62 @@ impl Tabulated {
         }
         Tabulated {
             dims,
+            lookup: Lookup::Residual,
             values: out,
             filled,
             outside,
             fill,
         }
+    }
+
+    /// A table from its parts (cells φd fastest, then θd, then θh): `filled` marks cells with
+    /// no sample near, `outside` cells whose centre has light or eye below the horizon.
+    pub(crate) fn from_parts(
+        dims: Dims,
+        lookup: Lookup,
+        values: Vec<f32>,
+        filled: Vec<bool>,
+        fill: Model,
+    ) -> Tabulated {
+        let [nh, nd, np] = dims.0;
+        let mut outside = vec![false; dims.cells()];
+        for ih in 0..nh {
+            for id in 0..nd {
+                for ip in 0..np {
+                    let centre = [ih as f64 + 0.5, id as f64 + 0.5, ip as f64 + 0.5];
+                    outside[(ih * nd + id) * np + ip] = !centre_geometry(dims, centre).visible();
+                }
+            }
+        }
+        Tabulated {
+            dims,
+            lookup,
+            values,
+            filled,
+            outside,
+            fill,
+        }
+    }
+
+    /// An exact BRDF as a material (for rendering a truth): every lookup evaluates `f`, at
+    /// least 0; no cell is filled. `fill` gives only the ambient term's pd.
+    pub fn exact(
+        f: std::sync::Arc<dyn Fn(&Geometry) -> f64 + Send + Sync>,
+        fill: Model,
+    ) -> Tabulated {
+        Tabulated {
+            dims: Dims([1, 1, 1]),
+            lookup: Lookup::Exact(f),
+            values: vec![0.0],
+            filled: vec![false],
+            outside: vec![false],
+            fill,
+        }
+    }
+
+    /// The cell values (residuals or log ratios by `lookup`), φd fastest.
+    pub fn values(&self) -> &[f32] {
+        &self.values
     }
 
     /// Share of the table's physical cells (centre with light and eye above the horizon)
@@ -186,6 +266,9 @@ impl Tabulated {
         if !g.visible() {
             return 0.0;
         }
+        if let Lookup::Exact(f) = &self.lookup {
+            return f(g).max(0.0);
+        }
         let c = coordinates(g);
         let [nh, nd, np] = self.dims.0;
         let axis = |u: f64, m: usize| {
@@ -205,12 +288,30 @@ impl Tabulated {
                 fd,
             )
         };
-        (self.fill.brdf(g) + lerp(plane(h0), plane(h1), fh)).max(0.0)
+        let v = match self.lookup {
+            // Catmull–Rom (cubic, through the cell centres) along θh, where a lobe's ratio to
+            // its model curves most; linear in θd and φd. The values are log ratios, so an
+            // overshoot cannot make f_r negative.
+            Lookup::Ratio { .. } if nh >= 4 => {
+                let hm = h0.saturating_sub(1);
+                let hp = (h1 + 1).min(nh - 1);
+                let (a, b, c, d) = (plane(hm), plane(h0), plane(h1), plane(hp));
+                let t = fh;
+                b + 0.5
+                    * t
+                    * (c - a + t * (2.0 * a - 5.0 * b + 4.0 * c - d + t * (3.0 * (b - c) + d - a)))
+            }
+            _ => lerp(plane(h0), plane(h1), fh),
+        };
+        match self.lookup {
+            Lookup::Ratio { delta } => ((self.fill.brdf(g) + delta) * v.exp() - delta).max(0.0),
+            _ => (self.fill.brdf(g) + v).max(0.0),
+        }
     }
 }
 
 /// The geometry at a cell centre given in index units.
-fn centre_geometry(dims: Dims, centre: [f64; 3]) -> Geometry {
+pub(crate) fn centre_geometry(dims: Dims, centre: [f64; 3]) -> Geometry {
     let [nh, nd, np] = dims.0;
     let u = centre[0] / nh as f64;
     let th = u * u * FRAC_PI_2;

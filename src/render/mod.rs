@@ -21,6 +21,7 @@
 
 pub mod compare;
 pub mod measured;
+pub mod reconstruct;
 pub mod scene;
 
 use crate::model::{Distribution, Geometry, Model, ModelKind};

@@ -1,0 +1,347 @@
+//! The reference's own error bar, by cross-validation, and the verdict it allows.
+//!
+//! The reference image is a reconstruction of the samples ([`crate::render::reconstruct`]);
+//! where the samples are sparse it may be far from the material. Its error is estimated the
+//! way a goniometer misses data: the table is rebuilt without whole slices of the
+//! measurement (alternate θi slices, alternate azimuth slices; alternate samples for
+//! scattered data), each rebuilt table is rendered in the case's scene, and its LDR-ꟻLIP
+//! against the reference over the object is taken; the largest fold is the stated error.
+//! Leaving out half the slices doubles the spacing, so the folds' differences exceed the
+//! full table's own interpolation error wherever that error comes from the spacing.
+
+use crate::data::Dataset;
+use crate::render::measured::Tabulated;
+use std::sync::Arc;
+
+/// The reference's own error, as `choose.json` writes it per case.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ReferenceError {
+    /// 99th percentile of LDR-ꟻLIP over the object, the largest over the folds.
+    pub flip_p99: f64,
+    /// Mean LDR-ꟻLIP over the whole image, the largest over the folds.
+    pub flip_mean: f64,
+    /// How it was estimated.
+    pub method: String,
+}
+
+/// A case's verdict.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Verdict {
+    /// A model is within the threshold, and the reference's own error is below it.
+    Chosen,
+    /// No model is within the threshold, and the reference is determined.
+    None,
+    /// The reference's own error exceeds the threshold: no choice can be trusted.
+    Undetermined,
+}
+
+impl Verdict {
+    /// The JSON spelling.
+    pub fn name(self) -> &'static str {
+        match self {
+            Verdict::Chosen => "chosen",
+            Verdict::None => "none",
+            Verdict::Undetermined => "undetermined",
+        }
+    }
+}
+
+/// Which slices a fold leaves out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FoldKind {
+    /// Alternate θi slices.
+    ThetaI,
+    /// Alternate azimuth (φo − φi) slices.
+    Azimuth,
+    /// The outermost θi slice and the last 10° of θo (extrapolation beyond the data).
+    Extrapolation,
+    /// Alternate samples (scattered data).
+    Samples,
+}
+
+/// A table rebuilt without part of the samples.
+pub struct Fold {
+    /// What was left out, in words.
+    pub name: String,
+    /// Which kind of slices.
+    pub kind: FoldKind,
+    /// The rebuilt table.
+    pub table: Arc<Tabulated>,
+}
+
+/// Most distinct values an angle may take for the data to count as slices of it.
+const MAX_SLICES: usize = 90;
+
+/// The distinct values of `a` (to 0.01°), sorted; `None` when there are more than
+/// [`MAX_SLICES`] or fewer than 3.
+fn slices(a: impl Iterator<Item = f64>) -> Option<Vec<i64>> {
+    let mut v: Vec<i64> = a.map(|x| (x.to_degrees() * 100.0).round() as i64).collect();
+    v.sort_unstable();
+    v.dedup();
+    (3..=MAX_SLICES).contains(&v.len()).then_some(v)
+}
+
+/// Azimuth difference φo − φi in [0, 2π).
+fn azimuth(ds: &Dataset, k: usize) -> f64 {
+    (ds.phi_o[k] - ds.phi_i[k]).rem_euclid(std::f64::consts::TAU)
+}
+
+/// The subsets a cross-validation rebuilds from, with their names: without alternate θi
+/// slices and without alternate azimuth slices when the data come in such slices, else
+/// without alternate samples.
+pub fn fold_sets(ds: &Dataset) -> Vec<(String, FoldKind, Dataset)> {
+    let key = |x: f64| (x.to_degrees() * 100.0).round() as i64;
+    let subset = |keep: &dyn Fn(usize) -> bool| {
+        let mut out = ds.clone();
+        let idx: Vec<usize> = (0..ds.len()).filter(|&k| keep(k)).collect();
+        let pick = |v: &[f64]| idx.iter().map(|&k| v[k]).collect::<Vec<_>>();
+        out.theta_i = pick(&ds.theta_i);
+        out.phi_i = pick(&ds.phi_i);
+        out.theta_o = pick(&ds.theta_o);
+        out.phi_o = pick(&ds.phi_o);
+        for (c, src) in out.channels.iter_mut().zip(&ds.channels) {
+            c.values = pick(&src.values);
+        }
+        out.weights = ds.weights.as_deref().map(pick);
+        out
+    };
+    let mut out = Vec::new();
+    if let Some(ti) = slices(ds.theta_i.iter().copied()) {
+        for parity in 0..2 {
+            let drop: Vec<i64> = ti.iter().copied().skip(parity).step_by(2).collect();
+            let words = drop
+                .iter()
+                .map(|d| format!("{}", *d as f64 / 100.0))
+                .collect::<Vec<_>>()
+                .join(", ");
+            out.push((
+                format!("without θi = {words}°"),
+                FoldKind::ThetaI,
+                subset(&|k| !drop.contains(&key(ds.theta_i[k]))),
+            ));
+        }
+    }
+    if let (Some(ti), Some(top)) = (
+        slices(ds.theta_i.iter().copied()),
+        ds.theta_o.iter().copied().reduce(f64::max),
+    ) {
+        // Extrapolation: without the last θi slice and the last 10° of θo, so the rebuilt
+        // table extrapolates as far beyond its data as the full one does beyond the
+        // measurement.
+        let last = ti[ti.len() - 1];
+        let cut = top - 10f64.to_radians();
+        out.push((
+            format!(
+                "without θi = {}° and θo > {:.0}° (extrapolation)",
+                last as f64 / 100.0,
+                cut.to_degrees()
+            ),
+            FoldKind::Extrapolation,
+            subset(&|k| key(ds.theta_i[k]) != last && ds.theta_o[k] <= cut + 1e-9),
+        ));
+    }
+    if let Some(ph) = slices((0..ds.len()).map(|k| azimuth(ds, k))) {
+        for parity in 0..2 {
+            let drop: Vec<i64> = ph.iter().copied().skip(parity).step_by(2).collect();
+            out.push((
+                format!(
+                    "without alternate azimuth slices ({} of {})",
+                    drop.len(),
+                    ph.len()
+                ),
+                FoldKind::Azimuth,
+                subset(&|k| !drop.contains(&key(azimuth(ds, k)))),
+            ));
+        }
+    }
+    if out.is_empty() {
+        for parity in 0..2 {
+            out.push((
+                format!("without alternate samples ({})", ["even", "odd"][parity]),
+                FoldKind::Samples,
+                subset(&|k| k % 2 != parity),
+            ));
+        }
+    }
+    out
+}
+
+/// The spacing of the data's slices of θi and of azimuth, and the largest θi (degrees), when
+/// they come in slices.
+pub fn spacings(ds: &Dataset) -> (Option<f64>, Option<f64>, Option<f64>) {
+    let step = |v: Vec<i64>| {
+        v.windows(2)
+            .map(|w| (w[1] - w[0]) as f64 / 100.0)
+            .fold(0.0f64, f64::max)
+    };
+    (
+        slices(ds.theta_i.iter().copied()).map(step),
+        slices((0..ds.len()).map(|k| azimuth(ds, k))).map(step),
+        slices(ds.theta_i.iter().copied()).and_then(|v| v.last().map(|&x| x as f64 / 100.0)),
+    )
+}
+
+/// The method's description for `choose.json`.
+pub fn method(folds: &[Fold]) -> String {
+    format!(
+        "cross-validation: the table rebuilt {} ({} folds), each rendered and compared with the \
+         reference by LDR-ꟻLIP; the largest fold",
+        folds
+            .iter()
+            .map(|f| f.name.as_str())
+            .collect::<Vec<_>>()
+            .join("; "),
+        folds.len()
+    )
+}
+
+/// The verdict and its reason. `passes` is the chosen model, if any; `closest` the closest
+/// one and its error; `err` the reference's error under the threshold's metric (ꟻLIP p99 for
+/// metrics other than ꟻLIP); `worst` the fold with the largest error; `spacing` the data's θi
+/// and azimuth slice spacing; `beyond` the share of lit pixels outside measured cells.
+#[allow(clippy::too_many_arguments)]
+pub fn verdict(
+    chosen: Option<&str>,
+    closest: (&str, f64),
+    metric: &str,
+    threshold: f64,
+    err: f64,
+    worst: Option<FoldKind>,
+    spacing: (Option<f64>, Option<f64>, Option<f64>),
+    beyond: f64,
+) -> (Verdict, String) {
+    if err > threshold {
+        let why = match worst {
+            Some(FoldKind::ThetaI) => format!(
+                "it changes by {metric} {err:.3} when alternate θi slices are left out: the \
+                 {}° steps of θi are too coarse for this scene's highlight; measure at finer θi \
+                 steps (at least where the scene's configurations lie)",
+                spacing
+                    .0
+                    .map(|s| format!("{s}"))
+                    .unwrap_or_else(|| "?".into())
+            ),
+            Some(FoldKind::Azimuth) => format!(
+                "it changes by {metric} {err:.3} when alternate azimuth slices are left out: the \
+                 highlight is narrower than the {}° azimuth spacing near the mirror; measure at \
+                 finer azimuth steps near the mirror direction",
+                spacing
+                    .1
+                    .map(|s| format!("{s}"))
+                    .unwrap_or_else(|| "?".into())
+            ),
+            Some(FoldKind::Extrapolation) => format!(
+                "it changes by {metric} {err:.3} when the outermost θi slice and the last 10° of \
+                 θo are left out: the scene needs configurations beyond the measured angles \
+                 (up to θi {}°), which are extrapolated; measure closer to grazing incidence and \
+                 view",
+                spacing
+                    .2
+                    .map(|s| format!("{s}"))
+                    .unwrap_or_else(|| "?".into())
+            ),
+            _ => format!(
+                "it changes by {metric} {err:.3} when alternate samples are left out: the samples \
+                 are too sparse for this scene; measure more densely"
+            ),
+        };
+        let beyond = if beyond > 0.05 {
+            format!(
+                "; {:.0} % of the lit pixels lie beyond the measured configurations \
+                 (extrapolated)",
+                100.0 * beyond
+            )
+        } else {
+            String::new()
+        };
+        return (
+            Verdict::Undetermined,
+            format!(
+                "the reference is not determined: {why}{beyond}; the closest model, {} at {:.3}, \
+                 cannot be judged below that",
+                closest.0, closest.1
+            ),
+        );
+    }
+    match chosen {
+        Some(m) => (
+            Verdict::Chosen,
+            format!(
+                "{m} is within {metric} {threshold}, and the reference's own error ({err:.3}) is \
+                 below the threshold"
+            ),
+        ),
+        None => (
+            Verdict::None,
+            format!(
+                "no model is within {metric} {threshold} (the closest, {}, is at {:.3}) while the \
+                 reference's own error ({err:.3}) is below it: the material needs a model richer \
+                 than these",
+                closest.0, closest.1
+            ),
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid() -> Dataset {
+        let mut ds = Dataset::new(crate::data::Quantity::Brdf, vec![("v".into(), None)]);
+        for ti in [10.0f64, 20.0, 30.0, 40.0] {
+            for po in [0.0f64, 15.0, 30.0, 345.0] {
+                for to in [0.2, 0.5] {
+                    ds.push([ti.to_radians(), 0.0, to, po.to_radians()], &[ti]);
+                }
+            }
+        }
+        ds
+    }
+
+    /// Goniometer-like data give two θi folds and two azimuth folds that leave out the
+    /// alternate slices, counted by hand.
+    #[test]
+    fn folds_leave_out_alternate_slices() {
+        let f = fold_sets(&grid());
+        assert_eq!(f.len(), 5);
+        assert_eq!(f[0].1, FoldKind::ThetaI);
+        // Without θi = 10°, 30°: the 16 rows of 20° and 40° remain.
+        assert_eq!(f[0].2.len(), 16);
+        assert!(
+            f[0].2.channels[0]
+                .values
+                .iter()
+                .all(|&v| v == 20.0 || v == 40.0)
+        );
+        // Without θi = 40° and θo > 28.6° − 10° (the rows of θo 0.5 rad): 3 × 4 rows.
+        assert_eq!(f[2].1, FoldKind::Extrapolation);
+        assert_eq!(f[2].2.len(), 12);
+        assert_eq!(f[3].1, FoldKind::Azimuth);
+        assert_eq!(f[3].2.len() + f[4].2.len(), 32);
+        assert_eq!(spacings(&grid()), (Some(10.0), Some(315.0), Some(40.0)));
+    }
+
+    /// The three verdicts and their conditions.
+    #[test]
+    fn verdicts() {
+        let v = |chosen, err| {
+            verdict(
+                chosen,
+                ("phong", 0.03),
+                "flip_p99",
+                0.05,
+                err,
+                Some(FoldKind::Azimuth),
+                (Some(10.0), Some(15.0), Some(80.0)),
+                0.0,
+            )
+        };
+        assert_eq!(v(Some("phong"), 0.01).0, Verdict::Chosen);
+        assert_eq!(v(None, 0.01).0, Verdict::None);
+        let (u, why) = v(Some("phong"), 0.2);
+        assert_eq!(u, Verdict::Undetermined);
+        assert!(why.contains("15° azimuth spacing"), "{why}");
+    }
+}
