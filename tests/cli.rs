@@ -1502,3 +1502,30 @@ fn a_distribution_taken_for_the_user_is_said() {
     assert!(r.status.success());
     assert!(!String::from_utf8_lossy(&r.stderr).contains("note"));
 }
+
+/// A fit that fails (a channel the file lacks) writes no JSON or summary: an empty `fits` list
+/// would only fail its consumer later.
+#[test]
+fn a_failed_fit_writes_no_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("g.json");
+    let sum = dir.path().join("s.csv");
+    let r = brdfit(&[
+        "fit",
+        "tests/data/vch_golden_yellow_rgb.csv",
+        "--channel",
+        "green",
+        "--json",
+        json.to_str().unwrap(),
+        "--summary",
+        sum.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("no channel named 'green'") && err.contains("fix:"),
+        "{err}"
+    );
+    assert!(!err.contains("wrote"), "{err}");
+    assert!(!json.exists() && !sum.exists());
+}

@@ -90,6 +90,12 @@ pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
             }
         }
     }
+    // Nothing fitted: no output file (an empty `fits` list would only fail its consumer).
+    if all.is_empty()
+        && let Some(e) = first_err
+    {
+        return Err(e);
+    }
     if let Some(path) = &a.json {
         refuse_input(
             path,
