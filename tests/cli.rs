@@ -545,6 +545,39 @@ fn fit_command_end_to_end() {
     );
 }
 
+/// Every fit `fit --model all` writes can be read back, including one at a bound: on Blinn's
+/// aluminium TS-d1 and d2 drive n to its upper bound 1e7, which rounding used to write as
+/// 1e7 + 1e-8, a value the reader refuses ("outside the range a fit can return").
+#[test]
+fn every_fit_written_reads_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("al.json");
+    let o = brdfit(&[
+        "fit",
+        "data/blinn-aluminium.csv",
+        "--model",
+        "all",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&json).unwrap();
+    let fits = brdfit::fit::read_fit_file(&text).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(fits.len(), brdfit::model::catalogue().len());
+    let r7 = dir.path().join("r7");
+    let o = brdfit(&[
+        "render",
+        "fig7",
+        "--aluminium",
+        json.to_str().unwrap(),
+        "--res",
+        "16",
+        "-o",
+        r7.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
 #[test]
 fn export_completions_and_batch() {
     let dir = tempfile::tempdir().unwrap();

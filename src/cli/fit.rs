@@ -36,7 +36,17 @@ pub(crate) fn pick_fit(
     want: &brdfit::fit::Want,
     data_channel: Option<&str>,
 ) -> Result<brdfit::fit::PickedChannel> {
-    let mut p = brdfit::fit::pick_one(&read_fits(path)?, want, data_channel)
+    pick_fit_from(path, &read_fits(path)?, want, data_channel)
+}
+
+/// As [`pick_fit`], from the fits already read from `path` (named in messages).
+pub(crate) fn pick_fit_from(
+    path: &Path,
+    fits: &[brdfit::fit::FitResult],
+    want: &brdfit::fit::Want,
+    data_channel: Option<&str>,
+) -> Result<brdfit::fit::PickedChannel> {
+    let mut p = brdfit::fit::pick_one(fits, want, data_channel)
         .map_err(|e| anyhow!("{}: {e}", path.display()))?;
     say_notes(path, &p);
     Ok(p.channels.remove(0))

@@ -24,8 +24,9 @@ pub(crate) fn ts_model_from(
             }
             let mut want = pick.want(channel);
             want.model = Some(ModelKind::TorranceSparrow);
+            let fits = read_fits(p)?;
             if pick.model.is_none() && !quiet() {
-                let others: Vec<String> = read_fits(p)?
+                let others: Vec<String> = fits
                     .iter()
                     .filter(|f| f.model != ModelKind::TorranceSparrow)
                     .map(|f| f.label())
@@ -43,7 +44,7 @@ pub(crate) fn ts_model_from(
                     );
                 }
             }
-            let r = pick_fit(p, &want, None).map_err(|e| {
+            let r = pick_fit_from(p, &fits, &want, None).map_err(|e| {
                 anyhow::anyhow!("{e}\n  (fig7 needs a torrance-sparrow fit: brdfit fit DATA --model torrance-sparrow --json OUT)")
             })?;
             Ok(r.model)

@@ -331,8 +331,7 @@ pub(crate) fn check_fit_object(v: &serde_json::Value) -> Result<(), FitFileError
         if !spec.in_fit_box(val) {
             return Err(err(
                 format!(
-                    "params.{name} = {} is outside the range a fit can return: {}",
-                    crate::model::readable(val),
+                    "params.{name} = {val} is outside the range a fit can return: {}",
                     spec.fit_box_text()
                 ),
                 format!("refit, or write a value with {}", spec.fit_box_text()),

@@ -135,14 +135,16 @@ impl Transform {
         }
     }
 
-    /// θ(u) and dθ/du.
+    /// θ(u) and dθ/du. On a log scale θ is capped at the upper bound: u at its bound gives
+    /// offset + e^ln(hi − offset), which rounding can put an ulp above hi (n = 1e7 + 1e-8), a
+    /// value the fit file reader rightly refuses.
     #[inline]
     pub fn apply(self, u: f64) -> (f64, f64) {
         match self.scale {
             Scale::Linear => (u, 1.0),
             Scale::Log { offset } => {
                 let e = u.exp();
-                (offset + e, e)
+                ((offset + e).min(self.hi), e)
             }
         }
     }
