@@ -104,22 +104,23 @@ pub(super) fn material(m: &Model) -> Material {
     }
 }
 
-/// GLSL shared by the GGX–Smith lobes: H, N·H, tan² of θh, θl, θv and the exact Fresnel `F`
-/// of index `n` at c = V·H.
-pub(super) const GLSL_SHARED: &str = "    vec3 H = normalize(L + V);\n    float NdotH = dot(N, H);\n    float c = dot(V, H);\n    float t2 = (1.0 - NdotH * NdotH) / (NdotH * NdotH);\n    float tl = (1.0 - NdotL * NdotL) / (NdotL * NdotL);\n    float tv = (1.0 - NdotV * NdotV) / (NdotV * NdotV);\n    float g = sqrt(n * n + c * c - 1.0);\n    float F = 0.5 * pow((g - c) / (g + c), 2.0) * (1.0 + pow((c * (g + c) - 1.0) / (c * (g - c) + 1.0), 2.0));\n";
+/// GLSL shared by the GGX–Smith lobes: H, N·H, E·H and tan² of θh, θl, θv (the exact Fresnel
+/// `F` follows from [`super::GLSL_FRESNEL`]).
+pub(super) const GLSL_SHARED: &str = "    vec3 H = normalize(L + V);\n    float NdotH = dot(N, H);\n    float EdotH = dot(V, H);\n    float t2 = (1.0 - NdotH * NdotH) / (NdotH * NdotH);\n    float tl = (1.0 - NdotL * NdotL) / (NdotL * NdotL);\n    float tv = (1.0 - NdotV * NdotV) / (NdotV * NdotV);\n";
 
 /// GLSL of one lobe without F ([`lobe`]): `S{tag} = D G1 G1 / (4 N·L N·V)` with roughness
 /// uniform `alpha` (after [`GLSL_SHARED`]).
 pub(super) fn glsl_lobe(alpha: &str, tag: &str) -> String {
     format!(
-        "    float a2{tag} = {alpha} * {alpha};\n    float D{tag} = a2{tag} / (PI * pow(NdotH, 4.0) * pow(a2{tag} + t2, 2.0));\n    float G{tag} = 4.0 / ((1.0 + sqrt(1.0 + a2{tag} * tl)) * (1.0 + sqrt(1.0 + a2{tag} * tv)));\n    float S{tag} = D{tag} * G{tag} / (4.0 * NdotL * NdotV);\n"
+        "    float a2{tag} = {alpha} * {alpha};\n    float D{tag} = a2{tag} / (PI * NdotH * NdotH * NdotH * NdotH * (a2{tag} + t2) * (a2{tag} + t2));\n    float G{tag} = 4.0 / ((1.0 + sqrt(1.0 + a2{tag} * tl)) * (1.0 + sqrt(1.0 + a2{tag} * tv)));\n    float S{tag} = D{tag} * G{tag} / (4.0 * NdotL * NdotV);\n"
     )
 }
 
 /// F D G1 G1 / (4 N·L N·V).
 pub(super) fn glsl(_: &Model) -> String {
     format!(
-        "{GLSL_SHARED}{}    return vec3(pd / PI + ps * F * S);",
+        "{GLSL_SHARED}{}{}    return vec3(pd / PI + ps * F * S);",
+        super::GLSL_FRESNEL,
         glsl_lobe("alpha", "")
     )
 }

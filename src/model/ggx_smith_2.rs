@@ -123,7 +123,8 @@ pub(super) fn material(m: &Model) -> Material {
 /// F (ps1 D1 G1 G1 + ps2 D2 G1 G1) / (4 N·L N·V).
 pub(super) fn glsl(_: &Model) -> String {
     format!(
-        "{GLSL_SHARED}{}{}    return vec3(pd / PI + F * (ps1 * S1 + ps2 * S2));",
+        "{GLSL_SHARED}{}{}{}    return vec3(pd / PI + F * (ps1 * S1 + ps2 * S2));",
+        super::GLSL_FRESNEL,
         glsl_lobe("alpha1", "1"),
         glsl_lobe("alpha2", "2")
     )

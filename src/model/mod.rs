@@ -826,6 +826,11 @@ impl Model {
         }
     }
 }
+/// GLSL of the exact Fresnel factor `F` of index `n` at `EdotH` ([`fresnel`], Blinn 1977
+/// eq. for F), squares written as products: GLSL's `pow` is undefined for a negative base, and
+/// (c(g + c) − 1)/(c(g − c) + 1) is negative below E·H ≈ 0.55 at n = 1.5.
+pub(crate) const GLSL_FRESNEL: &str = "    float g = sqrt(n * n + EdotH * EdotH - 1.0);\n    float fa = (g - EdotH) / (g + EdotH);\n    float fb = (EdotH * (g + EdotH) - 1.0) / (EdotH * (g - EdotH) + 1.0);\n    float F = 0.5 * fa * fa * (1.0 + fb * fb);\n";
+
 /// A number as a person reads it: 4 significant digits, in scientific notation (`3.554e7`)
 /// when it is ≥ 1e5 or below 1e-3 in magnitude, never hundreds of digits.
 pub fn readable(v: f64) -> String {
@@ -885,6 +890,58 @@ impl fmt::Display for Model {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// GLSL's `pow(x, y)` is undefined for x < 0 (and for x = 0, y ≤ 0): every `pow` in every
+    /// model's Explorer shader takes a base that is positive by construction (N·H > 0 where L
+    /// and V are above the surface, a max(…, 0) clamp, or 1 + b(1 − N·H) with b > 0).
+    #[test]
+    fn glsl_pow_bases_are_never_negative() {
+        let safe = [
+            "NdotH",
+            "max(dot(R, V), 0.0)",
+            "max(dot(N, H), 0.0)",
+            "1.0 + b * (1.0 - NdotH)",
+        ];
+        for (kind, dist) in catalogue().into_iter().chain([
+            (ModelKind::GgxSmith2, Distribution::D3),
+            (ModelKind::TorranceSparrow, Distribution::Abc),
+        ]) {
+            let m = Model::new(
+                kind,
+                dist,
+                &kind
+                    .params(dist)
+                    .iter()
+                    .map(|s| s.start)
+                    .collect::<Vec<_>>(),
+            )
+            .unwrap();
+            let text = m.glsl();
+            let mut rest = text.as_str();
+            while let Some(i) = rest.find("pow(") {
+                rest = &rest[i + 4..];
+                let mut depth = 0;
+                let end = rest
+                    .char_indices()
+                    .find(|&(_, ch)| {
+                        match ch {
+                            '(' => depth += 1,
+                            ')' => depth -= 1,
+                            _ => {}
+                        }
+                        ch == ',' && depth == 0
+                    })
+                    .map(|(j, _)| j)
+                    .unwrap();
+                let base = &rest[..end];
+                assert!(
+                    safe.contains(&base),
+                    "{}: pow base {base:?} may be negative:\n{text}",
+                    kind.label(dist)
+                );
+            }
+        }
+    }
 
     fn close(a: f64, b: f64, tol: f64) -> bool {
         (a - b).abs() <= tol * (1.0 + b.abs())

@@ -126,12 +126,15 @@ pub(super) fn material(m: &Model) -> Material {
 pub(super) fn glsl(m: &Model) -> String {
     let d = match m.dist {
         Distribution::D1 => "pow(NdotH, c1)",
-        Distribution::D2 => "exp(-pow(acos(min(NdotH, 1.0)) * c2, 2.0))",
-        Distribution::D3 => "pow(c3 * c3 / (NdotH * NdotH * (c3 * c3 - 1.0) + 1.0), 2.0)",
+        Distribution::D2 => "exp(-(acos(min(NdotH, 1.0)) * c2) * (acos(min(NdotH, 1.0)) * c2))",
+        Distribution::D3 => {
+            "(c3 * c3 / (NdotH * NdotH * (c3 * c3 - 1.0) + 1.0)) * (c3 * c3 / (NdotH * NdotH * (c3 * c3 - 1.0) + 1.0))"
+        }
         Distribution::Abc => "pow(1.0 + b * (1.0 - NdotH), -c)",
     };
     format!(
-        "    vec3 H = normalize(L + V);\n    float NdotH = dot(N, H);\n    float EdotH = dot(V, H);\n    float D = {d};\n    float G = min(1.0, min(2.0 * NdotH * NdotV / EdotH, 2.0 * NdotH * NdotL / EdotH));\n    float c = EdotH;\n    float g = sqrt(n * n + c * c - 1.0);\n    float F = 0.5 * pow((g - c) / (g + c), 2.0) * (1.0 + pow((c * (g + c) - 1.0) / (c * (g - c) + 1.0), 2.0));\n    return vec3(pd / PI + ps * D * G * F / (PI * NdotL * NdotV));"
+        "    vec3 H = normalize(L + V);\n    float NdotH = dot(N, H);\n    float EdotH = dot(V, H);\n    float D = {d};\n    float G = min(1.0, min(2.0 * NdotH * NdotV / EdotH, 2.0 * NdotH * NdotL / EdotH));\n{}    return vec3(pd / PI + ps * D * G * F / (PI * NdotL * NdotV));",
+        super::GLSL_FRESNEL
     )
 }
 
