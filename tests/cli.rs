@@ -576,6 +576,32 @@ fn every_fit_written_reads_back() {
         r7.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // --distribution without --model takes that distribution's model, not the recommended one
+    // (this d1 fit has n at its bound, so it is marked not usable).
+    let glsl = dir.path().join("d1.brdf");
+    let o = brdfit(&[
+        "export",
+        json.to_str().unwrap(),
+        "--to",
+        "brdf-explorer",
+        "--distribution",
+        "d1",
+        "--allow-unusable",
+        "-o",
+        glsl.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&glsl).unwrap();
+    assert!(
+        text.contains("float c1 ") && text.contains("pow(NdotH, c1)"),
+        "{text}"
+    );
+    assert!(
+        String::from_utf8_lossy(&o.stderr)
+            .contains("--distribution d1 is a torrance-sparrow option"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
 }
 
 #[test]

@@ -522,7 +522,21 @@ pub fn pick(fits: &[FitResult], want: &Want) -> Result<Picked, FitFileError> {
             .join(", ")
     };
     let mut notes = Vec::new();
-    let chosen: (ModelKind, Distribution) = match want.model {
+    // A distribution asked without a model names the model that takes it (torrance-sparrow):
+    // taking the file's recommendation would silently drop --distribution.
+    let want_model = want.model.or_else(|| {
+        let d = want.dist?;
+        let kind = *ModelKind::ALL
+            .iter()
+            .find(|k| k.has_distribution() && k.distributions().contains(&d))?;
+        notes.push(format!(
+            "using the {} fit: --distribution {} is a {kind} option",
+            kind.label(d),
+            d.name()
+        ));
+        Some(kind)
+    });
+    let chosen: (ModelKind, Distribution) = match want_model {
         Some(kind) => {
             let of_kind: Vec<_> = models.iter().filter(|(k, _)| *k == kind).collect();
             let exact = of_kind.iter().find(|(_, d)| {
