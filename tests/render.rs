@@ -907,6 +907,36 @@ material = "m"
         e.contains("no fit of channel y") && e.contains("fit_channel"),
         "{e}"
     );
+    // The fix's command line keeps its real flag; the scene key is named where a key is meant.
+    assert!(
+        e.contains("pick one of them with fit_channel")
+            && e.contains("brdfit fit DATA --channel y --json OUT"),
+        "{e}"
+    );
+    // A model the file lacks names the command that fits it.
+    let e = parse_scene(
+        &text("fit = \"rgb.json\"\nfit_model = \"phong\""),
+        dir.path(),
+    )
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(
+        e.contains("with fit_model") && e.contains("brdfit fit DATA --model phong --json OUT"),
+        "{e}"
+    );
+    // A distribution that does not exist is refused, not ignored, beside a fit file too.
+    let e = parse_scene(
+        &text("fit = \"rgb.json\"\ndistribution = \"banana\""),
+        dir.path(),
+    )
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(
+        e.contains("unknown distribution 'banana'") && e.contains("d1, d2, d3 or abc"),
+        "{e}"
+    );
 }
 
 /// A mesh of many copies of one triangle keeps it once (no BVH split separates coincident

@@ -564,9 +564,17 @@ pub fn pick(fits: &[FitResult], want: &Want) -> Result<Picked, FitFileError> {
                         Some(d) if kind.has_distribution() => kind.label(d),
                         _ => kind.to_string(),
                     };
+                    let flags = match want.dist {
+                        Some(d) if kind.has_distribution() => {
+                            format!("--model {kind} --distribution {}", d.name())
+                        }
+                        _ => format!("--model {kind}"),
+                    };
                     return Err(err(
                         format!("no fit of model {asked}: the file holds {}", offered()),
-                        "pick one of them with --model (and --distribution), or fit that model with brdfit fit --model",
+                        format!(
+                            "pick one of them with --model (and --distribution), or fit that model: brdfit fit DATA {flags} --json OUT"
+                        ),
                     ));
                 }
             }

@@ -594,6 +594,13 @@ fn names_of(m: &[(String, MaterialSpec)]) -> String {
         .join(", ")
 }
 
+/// Material `name`'s `distribution` key, or an error naming the ones there are.
+fn distribution(name: &str, d: &str) -> Result<Distribution> {
+    Distribution::parse(d).ok_or_else(|| {
+        anyhow!("material {name}: unknown distribution '{d}'\n  fix: use d1, d2, d3 or abc")
+    })
+}
+
 fn material(name: &str, m: &MaterialSpec, dir: &Path, notes: &mut Vec<String>) -> Result<Material> {
     let key = |k: &str| format!("`materials.{name}.{k}`");
     // A colour fit: the lobe with ps = pd = 1, its channels' pd and ps as colours.
@@ -633,9 +640,7 @@ fn material(name: &str, m: &MaterialSpec, dir: &Path, notes: &mut Vec<String>) -
                 Some(d) if kind != ModelKind::TorranceSparrow => bail!(
                     "material {name}: `distribution` = \"{d}\" applies to torrance-sparrow only\n  fix: remove it"
                 ),
-                Some(d) => Distribution::parse(d).ok_or_else(|| {
-                    anyhow!("material {name}: unknown distribution '{d}'\n  fix: use d1, d2 or d3")
-                })?,
+                Some(d) => distribution(name, d)?,
                 None => Distribution::D3,
             };
             let set: Vec<(String, f64)> = match &m.params {
@@ -716,18 +721,23 @@ fn fit_material(
             )
         })?),
     };
+    let dist = match &m.distribution {
+        None => None,
+        Some(d) => Some(distribution(name, d)?),
+    };
     let want = Want {
         model,
-        dist: m.distribution.as_deref().and_then(Distribution::parse),
+        dist,
         channel: m.fit_channel.clone(),
         allow_unusable: m.fit_allow_unusable.unwrap_or(false),
     };
     let picked = pick(&fits, &want).map_err(|e| {
         at(&e
             .to_string()
-            .replace("--allow-unusable", "fit_allow_unusable = true")
-            .replace("--model", "fit_model")
-            .replace("--channel", "fit_channel"))
+            .replace("add --allow-unusable", "set fit_allow_unusable = true")
+            .replace("with --model", "with fit_model")
+            .replace("(and --distribution)", "(and distribution)")
+            .replace("with --channel", "with fit_channel"))
     })?;
     let colour = picked
         .colour()
