@@ -119,13 +119,13 @@ pub fn refit_as_ggx(c: &Colour) -> Result<(Colour, Option<String>), String> {
             .unwrap_or(0.0)
     };
     let note = format!(
-        "refitted: Mitsuba has no {}; this is brdfit's ggx-smith (alpha {}, n {}) fitted to 20,000 samples of it over the hemisphere (theta <= 88 deg, log loss), which Mitsuba evaluates exactly. The refit's f_r differs from the fitted model's by a median {:.2} %, 95th percentile {:.1} %, largest {:.0} % (relative).",
+        "refitted: Mitsuba has no {}; this is brdfit's ggx-smith (alpha {}, n {}) fitted to 20,000 samples of it over the hemisphere (theta <= 88 deg, log loss), which Mitsuba evaluates exactly. The refit's f_r differs from the fitted model's by a median {} %, 95th percentile {} %, largest {} % (relative).",
         c.model.kind.label(c.model.dist),
         short(alpha),
         short(n),
-        100.0 * q(0.5),
-        100.0 * q(0.95),
-        100.0 * q(1.0)
+        crate::model::readable(100.0 * q(0.5)),
+        crate::model::readable(100.0 * q(0.95)),
+        crate::model::readable(100.0 * q(1.0))
     );
     Ok((out, Some(note)))
 }

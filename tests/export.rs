@@ -38,6 +38,20 @@ fn text_exports_carry_the_mapping() {
     // Mitsuba has no Torrance–Sparrow: the export is a ggx-smith refit, its error stated.
     let x = export::mitsuba(&Colour::grey(&mgo), "mgo").unwrap();
     assert!(x.contains("blendbsdf") && x.contains("refitted:") && x.contains("by a median"));
+    // The refit's error statistics read in order: median ≤ 95th percentile ≤ largest (they
+    // were printed at different precisions, so a 0.01 % median showed above a "0.0 %" p95).
+    let stats: Vec<f64> = x
+        .split("by a median ")
+        .nth(1)
+        .unwrap()
+        .split(" %")
+        .take(3)
+        .map(|t| t.rsplit(' ').next().unwrap().parse::<f64>().unwrap())
+        .collect();
+    assert!(
+        stats[0] <= stats[1] && stats[1] <= stats[2],
+        "{stats:?}: {x}"
+    );
     assert_eq!(x.matches("<bsdf").count(), x.matches("</bsdf>").count());
     let al = Model::blinn_aluminium();
     assert!(export::pbrt(&Colour::grey(&al)).contains("\"conductor\" \"float roughness\" [ 0.5 ]"));
