@@ -692,7 +692,7 @@ pub fn choose(
     ds: &Dataset,
     cases: &[Case],
     opts: &ChooseOptions,
-    progress: &dyn Fn(&str),
+    progress: &(dyn Fn(&str) + Sync),
 ) -> Result<(ChooseResult, Vec<CaseImages>), crate::fit::FitError> {
     // Global fits: the comparison the report already makes, and the fill of empty cells.
     // The candidates in parallel (each fit is deterministic, so the order of work is free).
@@ -826,8 +826,8 @@ impl Reference {
     }
 }
 
-/// One candidate of a case: its row, the image judged, its ꟻLIP map and its progress line.
-type Candidate = (ModelRow, Image, Vec<f32>, String);
+/// One candidate of a case: its row, the image judged and its ꟻLIP map.
+type Candidate = (ModelRow, Image, Vec<f32>);
 
 /// One lighting case: the reference render, the scene-weighted samples, and each candidate's
 /// fit, render and image error.
@@ -836,7 +836,7 @@ fn run_case(
     reference: &Reference,
     global: &[FitResult],
     opts: &ChooseOptions,
-    progress: &dyn Fn(&str),
+    progress: &(dyn Fn(&str) + Sync),
 ) -> Result<(CaseResult, CaseImages), crate::fit::FitError> {
     let base = case.scene.materials[0].clone();
     let material = |model: Model, table: Option<Arc<Tabulated>>| crate::render::Material {
@@ -890,7 +890,8 @@ fn run_case(
     let mut renders = vec![(reference.name(), ref_img.clone())];
     let mut flip_maps = Vec::new();
     // Each candidate's fit, renders and judgement in parallel (every step is deterministic);
-    // the progress lines and rows follow in candidate order.
+    // each progress line as its candidate finishes (so a bar moves), the rows in candidate
+    // order.
     let done: Vec<Result<Candidate, crate::fit::FitError>> = opts
         .candidates
         .par_iter()
@@ -954,12 +955,12 @@ fn run_case(
                 unusable: fitted.unusable.clone(),
                 global_unusable: global[k].unusable.clone(),
             };
-            Ok((row, judged.image, judged.map, line))
+            progress(&line);
+            Ok((row, judged.image, judged.map))
         })
         .collect();
     for d in done {
-        let (row, image, map, line) = d?;
-        progress(&line);
+        let (row, image, map) = d?;
         renders.push((row.model.clone(), image));
         rows.push(row);
         flip_maps.push(map);
