@@ -427,8 +427,29 @@ mod ordered_map {
 /// Bin width of scene-weighted configurations (radians): 1°.
 const BIN: f64 = std::f64::consts::PI / 180.0;
 
+/// More 1° bins than this are merged into 2° bins (Blinn's sphere front lit at 512²: 19,161
+/// bins of 1°, 5,497 of 2°; every ꟻLIP p99 of `choose.md` the same to 4 digits, a quarter of
+/// the fitting time).
+pub const MAX_FINE_CONFIGURATIONS: usize = 8_000;
+
+/// The configurations `configs` binned to `width` (radians) in (θi, θo, Δφ): per bin the sum
+/// of its configurations and their count, in a fixed order.
+fn bin_configurations(configs: &[[f64; 3]], width: f64) -> Vec<([f64; 3], f64)> {
+    let mut bins: std::collections::BTreeMap<[i64; 3], ([f64; 3], f64)> = Default::default();
+    for c in configs {
+        let key = c.map(|a| (a / width).floor() as i64);
+        let e = bins.entry(key).or_insert(([0.0; 3], 0.0));
+        for k in 0..3 {
+            e.0[k] += c[k];
+        }
+        e.1 += 1.0;
+    }
+    bins.into_values().collect()
+}
+
 /// The scene-weighted sample set: the configurations of `scene`'s lit pixels of `material`,
-/// binned to 1° in (θi, θo, Δφ) with the bins' pixel counts as weights, each bin at the
+/// binned to 1° in (θi, θo, Δφ) (2° where there would be more than
+/// [`MAX_FINE_CONFIGURATIONS`] bins) with the bins' pixel counts as weights, each bin at the
 /// mean of its configurations, valued by `brdf` (f_r there). Bins are in a fixed order.
 pub fn scene_samples(
     scene: &Scene,
@@ -436,18 +457,13 @@ pub fn scene_samples(
     brdf: &dyn Fn(&crate::model::Geometry) -> f64,
 ) -> (Dataset, Vec<bool>, usize) {
     let (configs, mask) = scene.lit_configurations(material);
-    let mut bins: std::collections::BTreeMap<[i64; 3], ([f64; 3], f64)> = Default::default();
-    for c in &configs {
-        let key = c.map(|a| (a / BIN).floor() as i64);
-        let e = bins.entry(key).or_insert(([0.0; 3], 0.0));
-        for k in 0..3 {
-            e.0[k] += c[k];
-        }
-        e.1 += 1.0;
+    let mut bins = bin_configurations(&configs, BIN);
+    if bins.len() > MAX_FINE_CONFIGURATIONS {
+        bins = bin_configurations(&configs, 2.0 * BIN);
     }
     let mut ds = Dataset::new(crate::data::Quantity::Brdf, vec![("scene".into(), None)]);
     let mut weights = Vec::with_capacity(bins.len());
-    for (sum, count) in bins.values() {
+    for (sum, count) in &bins {
         let a = sum.map(|s| s / count);
         let g = crate::model::Geometry::from_angles(a[0], 0.0, a[1], a[2]);
         let y = brdf(&g);
@@ -502,10 +518,20 @@ fn refit_on_pixels(
     verify: usize,
 ) -> FitResult {
     use crate::model::Role;
+    // The log-loss fit is made unverified (only a start here): where it stands, it is
+    // verified now.
+    let fallback = |start: FitResult| {
+        if verify > 0 && start.verification.is_none() {
+            fit_one(ds, start.model, start.dist, verify).unwrap_or(start)
+        } else {
+            start
+        }
+    };
     if !(exposure > 0.0 && exposure.is_finite()) {
-        return start;
+        return fallback(start);
     }
     let specs = start.model.params(start.dist);
+    let start_kind = (start.model, start.dist);
     let linear = |name: &str| {
         specs
             .iter()
@@ -515,27 +541,39 @@ fn refit_on_pixels(
     for c in &mut scaled.channels {
         c.values.iter_mut().for_each(|v| *v *= exposure);
     }
-    let run = |m: &Model| {
-        let mut o = FitOptions::new(start.model);
-        o.dist = start.dist;
+    let run = |start: Vec<(String, f64)>, verify: usize| {
+        let mut o = FitOptions::new(start_kind.0);
+        o.dist = start_kind.1;
         o.loss = crate::fit::Loss::Pixel;
         o.local_only = true;
         o.profile = false;
         o.verify = verify;
-        o.start = m
-            .param_names()
+        o.start = start;
+        fit(&scaled, &o).ok().map(|mut f| f.remove(0))
+    };
+    let scaled_start = |m: &Model| {
+        m.param_names()
             .iter()
             .zip(m.params())
             .map(|(n, v)| (n.to_string(), if linear(n) { v * exposure } else { *v }))
-            .collect();
-        fit(&scaled, &o).ok().map(|mut f| f.remove(0))
+            .collect::<Vec<_>>()
     };
-    let best = [run(&start.model_for(0)), run(global)]
-        .into_iter()
-        .flatten()
-        .min_by(|a, b| a.cost.total_cmp(&b.cost));
+    // Both refinements unverified; the better one is then verified once (from its own
+    // solution, so the local method only confirms it).
+    let best = [
+        run(scaled_start(&start.model_for(0)), 0),
+        run(scaled_start(global), 0),
+    ]
+    .into_iter()
+    .flatten()
+    .min_by(|a, b| a.cost.total_cmp(&b.cost));
+    let best = if verify > 0 {
+        best.map(|b| run(b.params.clone(), verify).unwrap_or(b))
+    } else {
+        best
+    };
     let Some(mut r) = best else {
-        return start;
+        return fallback(start);
     };
     let scaled_checks = crate::fit::physical::problems(&r);
     r.unusable.retain(|u| !scaled_checks.contains(u));
@@ -564,7 +602,7 @@ fn errors(reference: &Image, test: &Image, mask: &[bool]) -> (Summary, Vec<f32>,
         reference.width,
         reference.height,
     );
-    let de = compare::delta_e_itp_map(&reference.pixels, &test.pixels);
+    let de = compare::delta_e_itp_masked(&reference.pixels, &test.pixels, mask);
     let f = compare::summarise(&flip, mask, FLIP_LEVEL);
     let d = compare::summarise(&de, mask, 1.0);
     (
@@ -654,7 +692,7 @@ pub fn choose(
     ds: &Dataset,
     cases: &[Case],
     opts: &ChooseOptions,
-    progress: &dyn Fn(&str),
+    progress: &(dyn Fn(&str) + Sync),
 ) -> Result<(ChooseResult, Vec<CaseImages>), crate::fit::FitError> {
     // Global fits: the comparison the report already makes, and the fill of empty cells.
     // The candidates in parallel (each fit is deterministic, so the order of work is free).
@@ -788,8 +826,8 @@ impl Reference {
     }
 }
 
-/// One candidate of a case: its row, the image judged, its ꟻLIP map and its progress line.
-type Candidate = (ModelRow, Image, Vec<f32>, String);
+/// One candidate of a case: its row, the image judged and its ꟻLIP map.
+type Candidate = (ModelRow, Image, Vec<f32>);
 
 /// One lighting case: the reference render, the scene-weighted samples, and each candidate's
 /// fit, render and image error.
@@ -798,7 +836,7 @@ fn run_case(
     reference: &Reference,
     global: &[FitResult],
     opts: &ChooseOptions,
-    progress: &dyn Fn(&str),
+    progress: &(dyn Fn(&str) + Sync),
 ) -> Result<(CaseResult, CaseImages), crate::fit::FitError> {
     let base = case.scene.materials[0].clone();
     let material = |model: Model, table: Option<Arc<Tabulated>>| crate::render::Material {
@@ -852,7 +890,8 @@ fn run_case(
     let mut renders = vec![(reference.name(), ref_img.clone())];
     let mut flip_maps = Vec::new();
     // Each candidate's fit, renders and judgement in parallel (every step is deterministic);
-    // the progress lines and rows follow in candidate order.
+    // each progress line as its candidate finishes (so a bar moves), the rows in candidate
+    // order.
     let done: Vec<Result<Candidate, crate::fit::FitError>> = opts
         .candidates
         .par_iter()
@@ -863,7 +902,8 @@ fn run_case(
             let fitted = if samples.is_empty() {
                 global[k].clone()
             } else {
-                let log_fit = fit_one(&samples, kind, dist, opts.verify)?;
+                // The log-loss fit is only the refit's start: unverified (the refit is).
+                let log_fit = fit_one(&samples, kind, dist, 0)?;
                 let g = global[k].model_for(0);
                 refit_on_pixels(&samples, log_fit, &g, exposure(&case.scene), opts.verify)
             };
@@ -915,12 +955,12 @@ fn run_case(
                 unusable: fitted.unusable.clone(),
                 global_unusable: global[k].unusable.clone(),
             };
-            Ok((row, judged.image, judged.map, line))
+            progress(&line);
+            Ok((row, judged.image, judged.map))
         })
         .collect();
     for d in done {
-        let (row, image, map, line) = d?;
-        progress(&line);
+        let (row, image, map) = d?;
         renders.push((row.model.clone(), image));
         rows.push(row);
         flip_maps.push(map);

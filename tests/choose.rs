@@ -95,6 +95,75 @@ fn eye_lit_scene_samples_have_light_equal_to_eye() {
     }
 }
 
+/// Blinn's sphere front lit at 512² has more 1° configurations than
+/// `MAX_FINE_CONFIGURATIONS`, so they are binned to 2°: fewer bins, weights still summing to
+/// the lit pixels, and the weighted sum of each bin's value at its mean configuration equal,
+/// to 1e-3, to the sum of f_r cosθi over every lit pixel's own configuration (computed here
+/// pixel by pixel from `lit_configurations`, for Blinn's MgO and for a sharper lobe, c3 0.1).
+#[test]
+fn coarsened_scene_samples_keep_the_pixel_sum() {
+    let case = fig7_cases(512).remove(0);
+    assert_eq!(case.name, "front");
+    let (configs, _) = case.scene.lit_configurations(0);
+    let sharp = Model::new(
+        ModelKind::TorranceSparrow,
+        Distribution::D3,
+        &[1.8, 0.1, 0.667, 0.333],
+    )
+    .unwrap();
+    for m in [Model::blinn_mgo(), sharp] {
+        let (ds, _, lit) = choose::scene_samples(&case.scene, 0, &|g| m.brdf(g));
+        assert_eq!(lit, configs.len());
+        assert!(
+            ds.len() <= choose::MAX_FINE_CONFIGURATIONS && ds.len() * 10 < lit,
+            "{} bins for {lit} pixels",
+            ds.len()
+        );
+        let w = ds.weights.as_ref().unwrap();
+        assert_eq!(w.iter().sum::<f64>() as usize, lit);
+        let binned: f64 = (0..ds.len())
+            .map(|k| w[k] * ds.channels[0].values[k] * ds.theta_i[k].cos())
+            .sum();
+        let direct: f64 = configs
+            .iter()
+            .map(|c| {
+                let g = brdfit::model::Geometry::from_angles(c[0], 0.0, c[1], c[2]);
+                m.brdf(&g) * c[0].cos()
+            })
+            .sum();
+        let rel = (binned / direct - 1.0).abs();
+        assert!(rel < 1e-3, "binned {binned} direct {direct} ({rel:e})");
+    }
+}
+
+/// ΔE_ITP over a mask: on the mask each pixel's `delta_e_itp` of its two colours, 0 elsewhere;
+/// so its summary over the mask equals the whole map's.
+#[test]
+fn masked_delta_e_itp_is_the_map_on_the_mask() {
+    let case = fig7_cases(64).remove(1);
+    let a = case.scene.render(&|| {});
+    let mut s = case.scene.clone();
+    s.materials[0].model = Model::blinn_aluminium();
+    let b = s.render(&|| {});
+    let (_, mask) = case.scene.lit_configurations(0);
+    assert!(mask.iter().any(|&m| m) && mask.iter().any(|&m| !m));
+    let masked = compare::delta_e_itp_masked(&a.pixels, &b.pixels, &mask);
+    for i in 0..mask.len() {
+        let want = if mask[i] {
+            compare::delta_e_itp(a.pixels[i].map(f64::from), b.pixels[i].map(f64::from)) as f32
+        } else {
+            0.0
+        };
+        assert_eq!(masked[i], want, "pixel {i}");
+    }
+    let full = compare::delta_e_itp_map(&a.pixels, &b.pixels);
+    assert_eq!(
+        compare::summarise(&masked, &mask, 1.0),
+        compare::summarise(&full, &mask, 1.0)
+    );
+    assert!(masked.iter().any(|&e| e > 1.0), "the images differ");
+}
+
 /// ΔE_ITP of images: identical images give 0, swapping reference and test gives the same map.
 #[test]
 fn delta_e_itp_is_zero_for_equal_and_symmetric() {

@@ -152,11 +152,26 @@ pub(super) fn verify(
     let polished: Vec<Solution> = if same_rows && robust == Robust::None {
         sols.into_iter().take(1).collect()
     } else {
+        // A converged start that costs clearly more on every row than the fit (beyond
+        // CONTENDER_RATIO, the search's own margin between basins) is not polished: its cost
+        // on every row stands for it.
         sols.iter()
             .take(3)
             .collect::<Vec<_>>()
             .par_iter()
-            .map(|s| lsq::solve(full, &s.x, opts.method, robust, &opts.limits))
+            .map(|s| {
+                if s.converged {
+                    let here = lsq::cost(full, &s.x, robust).unwrap_or(f64::INFINITY);
+                    if here > cost * super::solve::CONTENDER_RATIO {
+                        return Solution {
+                            cost: here,
+                            evaluations: 1,
+                            ..(*s).clone()
+                        };
+                    }
+                }
+                lsq::solve(full, &s.x, opts.method, robust, &opts.limits)
+            })
             .collect()
     };
     evaluations += polished.iter().map(|s| s.evaluations).sum::<usize>();

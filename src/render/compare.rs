@@ -57,10 +57,23 @@ pub fn delta_e_itp(a: [f64; 3], b: [f64; 3]) -> f64 {
 
 /// Per-pixel ΔE_ITP between two linear images of equal size.
 pub fn delta_e_itp_map(reference: &[[f32; 3]], test: &[[f32; 3]]) -> Vec<f32> {
+    delta_e_itp_masked(reference, test, &[])
+}
+
+/// [`delta_e_itp_map`] where `mask` is true (0 elsewhere; every pixel when `mask` is empty):
+/// what [`summarise`] over the same mask reads, at the cost of the masked pixels alone.
+pub fn delta_e_itp_masked(reference: &[[f32; 3]], test: &[[f32; 3]], mask: &[bool]) -> Vec<f32> {
     reference
         .iter()
         .zip(test)
-        .map(|(a, b)| delta_e_itp(a.map(f64::from), b.map(f64::from)) as f32)
+        .enumerate()
+        .map(|(i, (a, b))| {
+            if mask.is_empty() || mask[i] {
+                delta_e_itp(a.map(f64::from), b.map(f64::from)) as f32
+            } else {
+                0.0
+            }
+        })
         .collect()
 }
 
