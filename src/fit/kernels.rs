@@ -376,6 +376,24 @@ impl Ggx {
     }
 }
 
+/// [`Ggx::lobe`] per unit cosθi at rows `range`: D G1(L) G1(E)/(4 N·L N·E), 0 where N·H ≤ 0
+/// or E·H ≤ 0.
+pub(super) fn ggx_lobe_values(alpha: f64, rows: &Rows, range: std::ops::Range<usize>) -> Vec<f64> {
+    let k = Ggx::new([alpha, 1.5, 1.0, 0.0]);
+    range
+        .map(|i| {
+            let (nh, eh) = (rows.nh[i], rows.eh[i]);
+            if nh > 0.0 && eh > 0.0 {
+                let nh2 = nh * nh;
+                let tan2 = (1.0 - nh2).max(0.0) / nh2;
+                k.lobe(nh2, tan2, rows.nl[i], rows.ne[i]).0 / rows.nl[i]
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
 /// One block of GGX–Smith: columns nl, ne, nh, eh, target. y = cosθi f_r =
 /// pd cosθi/π + ps F D G1(L) G1(E)/(4 N·E), zero specular where N·H ≤ 0 or E·H ≤ 0, as in
 /// `model::ggx_smith::brdf_grad`.

@@ -794,6 +794,12 @@ impl Problem for BrdfProblem {
     }
 }
 
+/// The GGX lobe D G1(L) G1(E)/(4 N·L N·E) of roughness `alpha` (GGX–Smith's f_r per unit
+/// ps·F; Walter et al. 2007, eqs. 33 and 34) at rows `range`, 0 where N·H ≤ 0 or E·H ≤ 0.
+pub fn ggx_lobe_values(alpha: f64, rows: &Rows, range: std::ops::Range<usize>) -> Vec<f64> {
+    kernels::ggx_lobe_values(alpha, rows, range)
+}
+
 /// f_r of `model` at rows `range` (the lane form of [`TsD3`] for Torrance–Sparrow with D3).
 pub fn brdf_values(model: &Model, rows: &Rows, range: std::ops::Range<usize>) -> Vec<f64> {
     if model.kind == ModelKind::TorranceSparrow && model.dist == Distribution::D3 {
