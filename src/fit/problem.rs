@@ -7,6 +7,10 @@ mod kernels;
 use crate::lanes::{self, LANES};
 use crate::model::{Distribution, Geometry, MAX_PARAMS, Model, ModelKind, ParamSpec, Scale};
 
+/// Rows per channel above which a fit refines its candidates on a subsample of this many rows
+/// per channel before polishing on every row.
+pub const SUBSAMPLE_ROWS: usize = 2_000;
+
 /// Which residual the fit minimises (½ Σ r²).
 #[derive(
     Clone,
