@@ -62,18 +62,18 @@ impl Lane {
 }
 
 /// Σ ρ(r) of rows `range` with Jᵀr and JᵀJ (upper triangle) in the model's parameters added to
-/// `gr` and `g` (each row's terms weighted by the robust weight ρ'(r)/r, as the row path does).
+/// `gr` and `g` (each row's terms weighted by the robust weight ρ'(r)/r, as the row path does),
+/// for `how` = (the kernel, the loss, the robust loss).
 #[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
 pub(super) fn rows_normal(
-    lane: Lane,
-    loss: Loss,
-    rob: Robust,
+    how: (Lane, Loss, Robust),
     rows: &Rows,
     range: std::ops::Range<usize>,
     model: &Model,
     g: &mut [[f64; MAX_PARAMS]; MAX_PARAMS],
     gr: &mut [f64; MAX_PARAMS],
 ) -> f64 {
+    let (lane, loss, rob) = how;
     let plain = rob == Robust::None;
     match (loss, plain) {
         (Loss::Log, true) => body::<true, true, false>(lane, rob, rows, range, model, g, gr),
@@ -733,8 +733,8 @@ mod tests {
                             [Robust::None, Robust::Huber(delta), Robust::Cauchy(delta)][t % 3];
                         let (mut g1, mut r1) = ([[0.0; MAX_PARAMS]; MAX_PARAMS], [0.0; MAX_PARAMS]);
                         let (mut g2, mut r2) = ([[0.0; MAX_PARAMS]; MAX_PARAMS], [0.0; MAX_PARAMS]);
-                        let c1 =
-                            rows_normal(lane, loss, rob, &rows, 0..m, &model, &mut g1, &mut r1);
+                        let how = (lane, loss, rob);
+                        let c1 = rows_normal(how, &rows, 0..m, &model, &mut g1, &mut r1);
                         assert_eq!(c1, rows_cost(lane, loss, rob, &rows, 0..m, &model));
                         let c2 = kernel_rows_any(&rows, 0..m, loss, &model, rob, &mut g2, &mut r2);
                         if rob != Robust::None

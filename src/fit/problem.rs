@@ -728,9 +728,7 @@ impl Problem for BrdfProblem {
                 cost
             } else if let Some(lane) = kernels::Lane::of(model, self.loss) {
                 kernels::rows_normal(
-                    lane,
-                    self.loss,
-                    robust,
+                    (lane, self.loss, robust),
                     &self.rows,
                     lo..hi,
                     model,
