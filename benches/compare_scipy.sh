@@ -37,8 +37,8 @@ for n in $SIZES; do
   $BIN simulate --model torrance-sparrow --set n=1.8,c3=0.35,ps=0.667,pd=0.333 \
       --grid hemisphere:$n --noise 0.01 --seed 1 -o "$csv"
   peer=$($PYTHON "$PEER" "$csv" --loss log --start "$START" --repeat 5)
-  $BIN fit "$csv" --start "$START" --repeat 5 --json "$TMP/default.json" > /dev/null
-  $BIN fit "$csv" --start "$START" --local-only --repeat 5 --json "$TMP/local.json" > /dev/null
+  $BIN fit "$csv" --max-input-mb 256 --start "$START" --repeat 5 --json "$TMP/default.json" > /dev/null
+  $BIN fit "$csv" --max-input-mb 256 --start "$START" --local-only --repeat 5 --json "$TMP/local.json" > /dev/null
   $PYTHON benches/compare_scipy.py "$csv" "$PEER" "$peer" \
       "default=$TMP/default.json" "local-only=$TMP/local.json"
 done

@@ -81,7 +81,9 @@ pub fn ln_1p(y: &[f64; LANES]) -> ([f64; LANES], [f64; LANES]) {
 
 /// e^x of each lane (fdlibm `__ieee754_exp`: x = k ln2 + r, |r| ≤ ½ ln2, with ln2 in two
 /// parts; e^r = 1 + r + r c/(2 − c), c = r − r² P(r²); e^x = 2^k e^r). k is rounded to
-/// nearest by adding and subtracting 1.5 · 2^52, whose bit pattern then holds k. Lanes outside
+/// nearest by adding and subtracting 1.5 · 2^52, whose bit pattern then holds k. Lanes below
+/// −746 give 0 (e^x < 2⁻¹⁰⁷⁶, half the least subnormal, rounds to 0: a sharp lobe far from its
+/// peak, common in the fitter's kernels, stays on the fast path); other lanes outside
 /// [−708, 709] (where 2^k would not be a normal number) or not finite get [`f64::exp`].
 #[inline(always)]
 pub fn exp(x: &[f64; LANES]) -> [f64; LANES] {
@@ -98,7 +100,8 @@ pub fn exp(x: &[f64; LANES]) -> [f64; LANES] {
     let mut bad = false;
     for l in 0..LANES {
         let v = x[l];
-        bad |= !(-708.0..=709.0).contains(&v);
+        let zero = v < -746.0;
+        bad |= !zero && !(-708.0..=709.0).contains(&v);
         // Out-of-range lanes are computed at 0 and replaced below.
         let v = if (-708.0..=709.0).contains(&v) {
             v
@@ -114,11 +117,12 @@ pub fn exp(x: &[f64; LANES]) -> [f64; LANES] {
         let z = r * r;
         let c = r - z * (P1 + z * (P2 + z * (P3 + z * (P4 + z * P5))));
         let y = 1.0 - ((lo - (r * c) / (2.0 - c)) - hi);
-        out[l] = y * f64::from_bits(((k + 1023) as u64) << 52);
+        let e = y * f64::from_bits(((k + 1023) as u64) << 52);
+        out[l] = if zero { 0.0 } else { e };
     }
     if bad {
         for l in 0..LANES {
-            if !(-708.0..=709.0).contains(&x[l]) {
+            if !(x[l] < -746.0) && !(-708.0..=709.0).contains(&x[l]) {
                 out[l] = x[l].exp();
             }
         }
@@ -235,8 +239,10 @@ mod tests {
             let mut x = [0.0; LANES];
             for v in x.iter_mut() {
                 // The whole range, plus values near 0 and near the reduction's half-way points.
-                *v = match rng.random_range(0..3) {
+                *v = match rng.random_range(0..4) {
                     0 => rng.random_range(-750.0..750.0),
+                    // Far below the underflow (a sharp lobe away from its peak): exactly 0.
+                    3 => -(10f64.powf(rng.random_range(2.8..12.0))),
                     1 => rng.random_range(-1e-6..1e-6),
                     _ => rng.random_range(-40.0..40.0),
                 };

@@ -33,6 +33,21 @@ impl TsFactors {
         TsFactors { a, b, m }
     }
 
+    /// GGX–Smith's specular basis s = F(n)·L(α), L = D G1 G1/(4 N·L N·E), at every point of
+    /// a grid of α (`alphas`, the slower axis, as the parameters are declared) and n (`ns`):
+    /// rows of `a` are L(α), rows of `b` F(n) (0 where N·H ≤ 0 or E·H ≤ 0).
+    fn ggx(tables: &LobeTables, alphas: &[f64], ns: &[f64]) -> Option<Self> {
+        let mut a = Vec::with_capacity(alphas.len() * tables.m);
+        for &v in alphas {
+            a.extend_from_slice(tables.lobe(v)?);
+        }
+        let mut b = Vec::with_capacity(ns.len() * tables.m);
+        for &v in ns {
+            b.extend_from_slice(tables.fresnel(v)?);
+        }
+        Some(TsFactors { a, b, m: tables.m })
+    }
+
     /// [`basis_sums`] at every grid point, n-major: three matrix products (17 × m by m × 19
     /// for the default grids) instead of a pass over the rows per grid point.
     fn grid_sums(&self, w: &[f64], wf: &[f64]) -> Vec<[f64; 3]> {
@@ -63,6 +78,75 @@ impl TsFactors {
             a: &self.a[i * m..(i + 1) * m],
             b: &self.b[j * m..(j + 1) * m],
         }
+    }
+}
+
+/// GGX lobes L(α) = D G1 G1/(4 N·L N·E) at every α of the grid and Fresnel factors F(n)
+/// (0 where N·H ≤ 0 or E·H ≤ 0) at every n of the grid, over all rows: a GGX–Smith basis (one
+/// lobe or two sharing n) at any grid point is F(n)·L(α), with nothing evaluated per point.
+pub(super) struct LobeTables {
+    alphas: Vec<f64>,
+    lobes: Vec<Vec<f64>>,
+    ns: Vec<f64>,
+    fres: Vec<Vec<f64>>,
+    m: usize,
+}
+
+impl LobeTables {
+    fn new(rows: &Rows, alphas: &[f64], ns: &[f64]) -> Self {
+        let m = rows.len();
+        let mut alphas = alphas.to_vec();
+        alphas.sort_by(f64::total_cmp);
+        alphas.dedup();
+        let lobes = alphas
+            .iter()
+            .map(|&a| problem::ggx_lobe_values(a, rows, 0..m))
+            .collect();
+        let fres = ns
+            .iter()
+            .map(|&n| {
+                (0..m)
+                    .map(|r| {
+                        let ok = rows.nh[r] > 0.0 && rows.eh[r] > 0.0;
+                        if ok {
+                            crate::model::fresnel(n, rows.eh[r])
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        LobeTables {
+            alphas,
+            lobes,
+            ns: ns.to_vec(),
+            fres,
+            m,
+        }
+    }
+
+    /// L(α) on every row, if α is tabulated.
+    fn lobe(&self, alpha: f64) -> Option<&[f64]> {
+        let i = self
+            .alphas
+            .iter()
+            .position(|a| a.to_bits() == alpha.to_bits())?;
+        Some(&self.lobes[i])
+    }
+
+    /// F(n) on every row, if n is tabulated.
+    fn fresnel(&self, n: f64) -> Option<&[f64]> {
+        let j = self.ns.iter().position(|v| v.to_bits() == n.to_bits())?;
+        Some(&self.fres[j])
+    }
+
+    /// The basis F(n)·L(α) on rows `range`, if both values are tabulated.
+    fn basis(&self, alpha: f64, n: f64, range: std::ops::Range<usize>) -> Option<Basis<'_>> {
+        Some(Basis {
+            a: &self.fresnel(n)?[range.clone()],
+            b: &self.lobe(alpha)?[range],
+        })
     }
 }
 
@@ -273,6 +357,48 @@ pub(super) fn linear_block<const JAC: bool>(
     }
 }
 
+/// The cost alone of [`linear_pass_many`] for the log loss when the last basis is ones (pd/π):
+/// f = Σ c_j s_j over the specular bases `spec` plus `b`, eight rows at a time with
+/// [`linear_block`] (`sw` empty = unweighted).
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+pub(super) fn linear_cost_log_many(
+    nl: &[f64],
+    tg: &[f64],
+    sw: &[f64],
+    spec: &[Basis],
+    coef: &[f64],
+    b: f64,
+) -> f64 {
+    let m = nl.len();
+    let mut acc = [[0.0f64; LANES]; 6];
+    let ones = [1.0f64; LANES];
+    let mut i = 0;
+    while i < m {
+        let len = (m - i).min(LANES);
+        // Lanes past the end repeat the last row with weight 0.
+        let get = |v: &[f64]| -> [f64; LANES] { std::array::from_fn(|l| v[i + l.min(len - 1)]) };
+        let w: [f64; LANES] = if sw.is_empty() && len == LANES {
+            ones
+        } else {
+            std::array::from_fn(|l| match (l < len, sw.is_empty()) {
+                (false, _) => 0.0,
+                (true, true) => 1.0,
+                (true, false) => sw[i + l],
+            })
+        };
+        let mut sv = [0.0f64; LANES];
+        for (s, &c) in spec.iter().zip(coef) {
+            let (sa, sb) = (get(s.a), get(s.b));
+            for l in 0..LANES {
+                sv[l] += c * (sa[l] * sb[l]);
+            }
+        }
+        linear_block::<false>(&get(nl), &get(tg), &w, &sv, (1.0, b), &mut acc);
+        i += LANES;
+    }
+    acc[0].iter().sum()
+}
+
 /// [`linear_pass`] for the linear loss.
 pub(super) fn linear_pass_linear(tg: &[f64], sw: &[f64], s: Basis, (a, b): (f64, f64)) -> [f64; 6] {
     let mut t = [0.0f64; 6];
@@ -363,9 +489,12 @@ pub(super) fn linear_pass_many(
     let k = s.len();
     let (mut cost, mut jtj, mut jtr) = (0.0, vec![0.0; k * k], vec![0.0; k]);
     let mut j = vec![0.0; k];
+    let mut sv = vec![0.0; k];
     for (i, r) in range.enumerate() {
         let w = if rows.weighted() { rows.sw[r] } else { 1.0 };
-        let sv: Vec<f64> = s.iter().map(|b| b.a[i] * b.b[i]).collect();
+        for (v, b) in sv.iter_mut().zip(s) {
+            *v = b.a[i] * b.b[i];
+        }
         let f: f64 = sv.iter().zip(c).map(|(a, b)| a * b).sum();
         let res = match loss {
             Loss::Log => {
@@ -406,8 +535,11 @@ pub(super) fn linear_pass_many(
 pub(super) fn gram_sums(s: &[Basis], w: &[f64], wf: &[f64]) -> (Vec<f64>, Vec<f64>) {
     let k = s.len();
     let (mut g, mut h) = (vec![0.0; k * k], vec![0.0; k]);
+    let mut sv = vec![0.0; k];
     for i in 0..w.len() {
-        let sv: Vec<f64> = s.iter().map(|b| b.a[i] * b.b[i]).collect();
+        for (v, b) in sv.iter_mut().zip(s) {
+            *v = b.a[i] * b.b[i];
+        }
         for a in 0..k {
             h[a] += wf[i] * sv[a];
             for b in 0..k {
@@ -571,6 +703,34 @@ pub(super) fn global_init(
         let table = f.grid_sums(&wdata, &wf);
         (f, table)
     });
+    // GGX–Smith (one lobe or two): the lobes and Fresnel factors at the grid's α and n, once.
+    let ggx = matches!(kind, ModelKind::GgxSmith | ModelKind::GgxSmith2);
+    let lobe_tables = ggx.then(|| {
+        let grid = |role: Role| -> Vec<f64> {
+            nonlinear
+                .iter()
+                .filter(|(k, _)| specs[*k].role == role)
+                .flat_map(|(_, g)| g.iter().copied())
+                .collect()
+        };
+        LobeTables::new(&p.rows, &grid(Role::Shape), &grid(Role::Index))
+    });
+    // One GGX lobe on one channel with α and n free: every point's sums at once (α is the
+    // slower axis, as declared).
+    let separable = separable.or_else(|| {
+        let t = lobe_tables.as_ref()?;
+        (kind == ModelKind::GgxSmith
+            && p.layout.len() == 1
+            && nonlinear.len() == 2
+            && specs[nonlinear[0].0].role == Role::Shape
+            && specs[nonlinear[1].0].role == Role::Index)
+            .then(|| {
+                let f = TsFactors::ggx(t, &nonlinear[0].1, &nonlinear[1].1)?;
+                let table = f.grid_sums(&wdata, &wf);
+                Some((f, table))
+            })
+            .flatten()
+    });
     let (ones, zeros) = (vec![1.0; p.rows.len()], vec![0.0; p.rows.len()]);
     let score_point = |index: usize, steps: usize| {
         let pt = &points[index];
@@ -660,13 +820,26 @@ pub(super) fn global_init(
                 let x = if ips.is_empty() { vec![x[1]] } else { x };
                 (cost, x)
             } else {
-                // Several lobes: a basis each, and a row loop.
-                let owned: Vec<Vec<f64>> = ips.iter().map(|&i| lobe(i)).collect();
-                let mut bases: Vec<Basis> = owned
+                // Several lobes: a basis each, and a row loop. GGX–Smith's two lobes come from the
+                // tables (lobe i's α is the parameter before its ps), others from the model.
+                let tabled = |i: usize| {
+                    let t = lobe_tables.as_ref()?;
+                    let n_index = kind.index_of(opts.dist, Role::Index)?;
+                    t.basis(vals[i - 1], vals[n_index], rows.clone())
+                };
+                let owned: Vec<Option<Vec<f64>>> = ips
                     .iter()
-                    .map(|s| Basis {
-                        a: s,
-                        b: &ones[..n],
+                    .map(|&i| tabled(i).is_none().then(|| lobe(i)))
+                    .collect();
+                let mut bases: Vec<Basis> = ips
+                    .iter()
+                    .zip(&owned)
+                    .map(|(&i, s)| match s {
+                        Some(s) => Basis {
+                            a: s,
+                            b: &ones[..n],
+                        },
+                        None => tabled(i).expect("a tabulated lobe"),
                     })
                     .collect();
                 bases.push(Basis {
@@ -677,7 +850,21 @@ pub(super) fn global_init(
                 let x0 = linear_solve(&g, &h, &held, &free);
                 let pass =
                     |x: &[f64]| linear_pass_many(&p.rows, rows.clone(), &bases, x, opts.loss);
-                refine_linear(&x0, &free, opts.loss, steps, pass, |x| pass(x).0)
+                let cost = |x: &[f64]| match opts.loss {
+                    Loss::Log => {
+                        let r = rows.clone();
+                        linear_cost_log_many(
+                            &p.rows.nl[r.clone()],
+                            &p.rows.target[r.clone()],
+                            weights(&p.rows, r),
+                            &bases[..k - 1],
+                            &x[..k - 1],
+                            x[k - 1],
+                        )
+                    }
+                    Loss::Linear | Loss::Pixel => pass(x).0,
+                };
+                refine_linear(&x0, &free, opts.loss, steps, pass, cost)
             };
             score += cost;
             for (j, &i) in ips.iter().chain([&ipd]).enumerate() {
@@ -890,6 +1077,59 @@ mod tests {
         }
     }
 
+    /// The lane cost of several lobes equals the row pass's cost (library ln_1p) to 1e-13, for
+    /// lengths with and without a partial last block, weighted or not.
+    #[test]
+    fn lane_cost_of_several_lobes_matches_the_row_pass() {
+        let rows = spread_rows();
+        let m = rows.len();
+        let s1: Vec<f64> = (0..m)
+            .map(|i| (0.37 * i as f64).sin().abs() * 3.0)
+            .collect();
+        let s2: Vec<f64> = (0..m).map(|i| (0.11 * i as f64).cos().powi(2)).collect();
+        let ones = vec![1.0; m];
+        let mut rows = rows;
+        for (i, t) in rows.target.iter_mut().enumerate() {
+            *t = (0.5 + (i % 9) as f64 * 0.1).ln_1p();
+        }
+        for weighted in [false, true] {
+            let mut rows = rows.clone();
+            if weighted {
+                let mut w = Rows::with_capacity(0, true);
+                w.extend(&rows);
+                w.sw = (0..m).map(|i| 0.3 + (i % 4) as f64 * 0.4).collect();
+                rows = w;
+            }
+            for len in [1, 7, 8, 9, m] {
+                fn basis<'a>(v: &'a [f64], ones: &'a [f64], len: usize) -> Basis<'a> {
+                    Basis {
+                        a: &v[..len],
+                        b: &ones[..len],
+                    }
+                }
+                let bases = [
+                    basis(&s1, &ones, len),
+                    basis(&s2, &ones, len),
+                    basis(&ones, &ones, len),
+                ];
+                let c = [0.7, 0.2, 0.05];
+                let want = linear_pass_many(&rows, 0..len, &bases, &c, Loss::Log).0;
+                let got = linear_cost_log_many(
+                    &rows.nl[..len],
+                    &rows.target[..len],
+                    weights(&rows, 0..len),
+                    &bases[..2],
+                    &c[..2],
+                    c[2],
+                );
+                assert!(
+                    (got - want).abs() <= 1e-13 * want,
+                    "{len} {weighted}: {got} vs {want}"
+                );
+            }
+        }
+    }
+
     /// ½ xᵀAx − bᵀx.
     fn quadratic(a: &[f64], b: &[f64], x: &[f64]) -> f64 {
         let k = b.len();
@@ -1012,10 +1252,9 @@ mod tests {
         assert_eq!(points.len(), 10 * 19 * 17);
     }
 
-    /// The tabulated sums of Torrance–Sparrow's separable basis equal, point by point, the
-    /// sums of the basis evaluated through the model (problem::brdf_values), for D3 and D1.
-    #[test]
-    fn separable_grid_sums_match_the_model_point_by_point() {
+    /// Visible rows spread over the hemisphere, incidence and azimuth varied (in and out of
+    /// the plane of incidence).
+    fn spread_rows() -> Rows {
         use crate::model::Geometry;
         use problem::Row;
         let mut rows = Vec::new();
@@ -1036,7 +1275,76 @@ mod tests {
                 });
             }
         }
-        let rows = Rows::from(rows);
+        Rows::from(rows)
+    }
+
+    /// GGX–Smith's tabulated basis F(n)·L(α) equals, row by row, the model's f_r with ps = 1
+    /// and pd = 0 (problem::brdf_values through `Model::brdf`), at every α and n of the grids,
+    /// and the tabulated sums of the one-lobe grid equal the sums of that basis.
+    #[test]
+    fn ggx_tables_match_the_model() {
+        let rows = spread_rows();
+        let m = rows.len();
+        let w: Vec<f64> = (0..m).map(|i| 0.5 + (i % 7) as f64 / 7.0).collect();
+        let wf: Vec<f64> = (0..m).map(|i| w[i] * (0.2 + (i % 5) as f64)).collect();
+        let specs = ModelKind::GgxSmith.params(Distribution::D3);
+        let (alphas, ns) = (specs[0].grid_values(), specs[1].grid_values());
+        let t = LobeTables::new(&rows, &alphas, &ns);
+        let f = TsFactors::ggx(&t, &alphas, &ns).expect("every grid value tabulated");
+        let table = f.grid_sums(&w, &wf);
+        let mut nonzero = 0;
+        for (i, &a) in alphas.iter().enumerate() {
+            for (j, &n) in ns.iter().enumerate() {
+                let model =
+                    Model::new(ModelKind::GgxSmith, Distribution::D3, &[a, n, 1.0, 0.0]).unwrap();
+                let want = problem::brdf_values(&model, &rows, 0..m);
+                let b = t.basis(a, n, 0..m).unwrap();
+                for r in 0..m {
+                    let got = b.a[r] * b.b[r];
+                    assert!(
+                        (got - want[r]).abs() <= 1e-12 * want[r].abs(),
+                        "α {a} n {n} row {r}: {got} vs {}",
+                        want[r]
+                    );
+                    nonzero += usize::from(want[r] > 0.0);
+                }
+                let sums = basis_sums(&want, &w, &wf);
+                for k in 0..3 {
+                    let got = table[i * ns.len() + j][k];
+                    assert!(
+                        (got - sums[k]).abs() <= 1e-10 * sums[k].abs(),
+                        "{got} vs {sums:?}"
+                    );
+                }
+            }
+        }
+        assert!(nonzero > alphas.len() * ns.len() * m / 2);
+        // The two-lobe model: its f_r is the sum of the two tabulated bases.
+        let (a1, a2, n) = (alphas[2], alphas[9], ns[5]);
+        let model = Model::new(
+            ModelKind::GgxSmith2,
+            Distribution::D3,
+            &[a1, 0.7, a2, 0.2, n, 0.0],
+        )
+        .unwrap();
+        let want = problem::brdf_values(&model, &rows, 0..m);
+        let (b1, b2) = (t.basis(a1, n, 0..m).unwrap(), t.basis(a2, n, 0..m).unwrap());
+        for r in 0..m {
+            let got = 0.7 * b1.a[r] * b1.b[r] + 0.2 * b2.a[r] * b2.b[r];
+            assert!(
+                (got - want[r]).abs() <= 1e-12 * want[r].abs(),
+                "row {r}: {got} vs {}",
+                want[r]
+            );
+        }
+        assert!(t.basis(0.123_456, n, 0..m).is_none());
+    }
+
+    /// The tabulated sums of Torrance–Sparrow's separable basis equal, point by point, the
+    /// sums of the basis evaluated through the model (problem::brdf_values), for D3 and D1.
+    #[test]
+    fn separable_grid_sums_match_the_model_point_by_point() {
+        let rows = spread_rows();
         let m = rows.len();
         let w: Vec<f64> = (0..m).map(|i| 0.5 + (i % 7) as f64 / 7.0).collect();
         let wf: Vec<f64> = (0..m).map(|i| w[i] * (0.2 + (i % 5) as f64)).collect();

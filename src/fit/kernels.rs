@@ -1,21 +1,29 @@
-//! Lane kernels of the models other than Torrance–Sparrow D3 (whose kernel is in
-//! `problem.rs`): Phong and Blinn–Phong (Phong 1975; Blinn 1977) and GGX–Smith (Walter et al.
-//! 2007, eqs. 33 and 34 with Smith's G1), for the log and the linear loss without a robust
-//! weight. Each computes, [`LANES`] rows at a time and without branches, what the row path
-//! through [`Model::brdf_grad`] computes: Σ ½r², Jᵀr and JᵀJ in model parameters. Each lane
-//! keeps its own sums, added in lane order at the end, so the result does not depend on the
-//! instruction set; the entries are compiled for AVX-512 and AVX2 as well and picked at run
-//! time (the `multiversion` crate).
+//! Lane kernels of every model but Lambert (Torrance–Sparrow D3 with the log loss, the default
+//! fit, keeps its own in `problem.rs`): Phong and Blinn–Phong (Phong 1975; Blinn 1977),
+//! Blinn's Torrance–Sparrow with D1, D2, D3 (Blinn 1977, "Facet distribution functions") and
+//! Löw et al. 2012's ABC lobe (eq. 6 with A = 1), GGX–Smith (Walter et al. 2007, eqs. 33 and 34
+//! with Smith's G1) and its two-lobe form, for the log and the linear loss, with or without a
+//! robust weight (Huber, Cauchy). Each computes, [`LANES`] rows at a time and without branches,
+//! what the row path through [`Model::brdf_grad`] computes: Σ ρ(r), Jᵀr and JᵀJ in model
+//! parameters. Each lane keeps its own sums, added in lane order at the end, so the result does
+//! not depend on the instruction set; the entries are compiled for AVX-512 and AVX2 as well and
+//! picked at run time (the `multiversion` crate).
 
-use super::{Loss, Rows};
+use super::{Loss, Rows, TsD3};
 use crate::fit::lsq::Robust;
 use crate::lanes::{self, LANES};
-use crate::model::{MAX_PARAMS, Model, ModelKind};
+use crate::model::{Distribution, MAX_PARAMS, Model, ModelKind};
 use std::f64::consts::{FRAC_1_PI, PI};
 
-/// Per-lane sums of a kernel of at most four parameters: Σ ½r², Jᵀr (4), the upper triangle
-/// of JᵀJ (10).
-pub(super) const SUMS: usize = 15;
+/// The most parameters a lane kernel handles (GGX–Smith with two lobes).
+const MAX_K: usize = 6;
+
+/// Where the upper triangle of JᵀJ starts in [`Acc`] (after Σ ρ and Jᵀr).
+pub(super) const TRI: usize = 1 + MAX_K;
+
+/// Per-lane sums of a kernel of at most [`MAX_K`] parameters: Σ ρ(r), Jᵀr, the upper triangle
+/// of JᵀJ.
+pub(super) const SUMS: usize = TRI + MAX_K * (MAX_K + 1) / 2;
 
 /// The per-lane sums.
 pub(super) type Acc = [[f64; LANES]; SUMS];
@@ -29,63 +37,84 @@ pub(super) enum Lane {
     BlinnPhong,
     /// GGX–Smith.
     Ggx,
+    /// GGX–Smith with two lobes.
+    Ggx2,
+    /// Blinn's Torrance–Sparrow with a facet distribution.
+    Ts(Distribution),
 }
 
 impl Lane {
-    /// The kernel for `model` under `loss`, if any (a robust weight, the pixel loss and Phong's
-    /// fast power take the row path).
-    pub(super) fn of(model: &Model, robust: Robust, loss: Loss) -> Option<Lane> {
-        if robust != Robust::None || loss == Loss::Pixel {
+    /// The kernel for `model` under `loss`, if any (the pixel loss, Phong's fast power and
+    /// Lambert take the row path).
+    pub(super) fn of(model: &Model, loss: Loss) -> Option<Lane> {
+        if loss == Loss::Pixel {
             return None;
         }
         match model.kind {
             ModelKind::Phong if model.fast_pow.is_none() => Some(Lane::Phong),
             ModelKind::BlinnPhong => Some(Lane::BlinnPhong),
             ModelKind::GgxSmith => Some(Lane::Ggx),
+            ModelKind::GgxSmith2 => Some(Lane::Ggx2),
+            ModelKind::TorranceSparrow => Some(Lane::Ts(model.dist)),
             _ => None,
         }
     }
 }
 
-/// Σ ½r² of rows `range` with Jᵀr and JᵀJ (upper triangle) in the model's parameters added to
-/// `gr` and `g`.
+/// Σ ρ(r) of rows `range` with Jᵀr and JᵀJ (upper triangle) in the model's parameters added to
+/// `gr` and `g` (each row's terms weighted by the robust weight ρ'(r)/r, as the row path does),
+/// for `how` = (the kernel, the loss, the robust loss).
 #[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
 pub(super) fn rows_normal(
-    lane: Lane,
-    loss: Loss,
+    how: (Lane, Loss, Robust),
     rows: &Rows,
     range: std::ops::Range<usize>,
     model: &Model,
     g: &mut [[f64; MAX_PARAMS]; MAX_PARAMS],
     gr: &mut [f64; MAX_PARAMS],
 ) -> f64 {
-    match loss {
-        Loss::Log => body::<true, true>(lane, rows, range, model, g, gr),
-        Loss::Linear => body::<false, true>(lane, rows, range, model, g, gr),
-        Loss::Pixel => unreachable!("Lane::of gives the pixel loss no lane kernel"),
+    let (lane, loss, rob) = how;
+    let plain = rob == Robust::None;
+    match (loss, plain) {
+        (Loss::Log, true) => body::<true, true, false>(lane, rob, rows, range, model, g, gr),
+        (Loss::Linear, true) => body::<false, true, false>(lane, rob, rows, range, model, g, gr),
+        (Loss::Log, false) => body::<true, true, true>(lane, rob, rows, range, model, g, gr),
+        (Loss::Linear, false) => body::<false, true, true>(lane, rob, rows, range, model, g, gr),
+        (Loss::Pixel, _) => unreachable!("Lane::of gives the pixel loss no lane kernel"),
     }
 }
 
-/// Σ ½r² of rows `range` alone (cost-only evaluations).
+/// Σ ρ(r) of rows `range` alone (cost-only evaluations).
 #[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
 pub(super) fn rows_cost(
     lane: Lane,
     loss: Loss,
+    rob: Robust,
     rows: &Rows,
     range: std::ops::Range<usize>,
     model: &Model,
 ) -> f64 {
     let (mut g, mut gr) = ([[0.0; MAX_PARAMS]; MAX_PARAMS], [0.0; MAX_PARAMS]);
-    match loss {
-        Loss::Log => body::<true, false>(lane, rows, range, model, &mut g, &mut gr),
-        Loss::Linear => body::<false, false>(lane, rows, range, model, &mut g, &mut gr),
-        Loss::Pixel => unreachable!("Lane::of gives the pixel loss no lane kernel"),
+    let (g, gr) = (&mut g, &mut gr);
+    let plain = rob == Robust::None;
+    match (loss, plain) {
+        (Loss::Log, true) => body::<true, false, false>(lane, rob, rows, range, model, g, gr),
+        (Loss::Linear, true) => body::<false, false, false>(lane, rob, rows, range, model, g, gr),
+        (Loss::Log, false) => body::<true, false, true>(lane, rob, rows, range, model, g, gr),
+        (Loss::Linear, false) => body::<false, false, true>(lane, rob, rows, range, model, g, gr),
+        (Loss::Pixel, _) => unreachable!("Lane::of gives the pixel loss no lane kernel"),
     }
 }
 
+/// The residual's options of a block: the loss (`LOG`), whether the Jacobian is wanted
+/// (`JAC`), whether a robust weight applies (`ROB`, with `rob`).
+#[derive(Clone, Copy)]
+struct Res<const LOG: bool, const JAC: bool, const ROB: bool>(Robust);
+
 #[inline(always)]
-fn body<const LOG: bool, const JAC: bool>(
+fn body<const LOG: bool, const JAC: bool, const ROB: bool>(
     lane: Lane,
+    rob: Robust,
     rows: &Rows,
     range: std::ops::Range<usize>,
     model: &Model,
@@ -93,6 +122,7 @@ fn body<const LOG: bool, const JAC: bool>(
     gr: &mut [f64; MAX_PARAMS],
 ) -> f64 {
     let p = model.p;
+    let res = Res::<LOG, JAC, ROB>(rob);
     match lane {
         Lane::Phong | Lane::BlinnPhong => {
             let x = if lane == Lane::Phong {
@@ -101,18 +131,36 @@ fn body<const LOG: bool, const JAC: bool>(
                 &rows.nh
             };
             let cols = [&rows.nl, x, &rows.target, &rows.nl, &rows.nl];
-            let acc = drive(
-                rows,
-                range,
-                cols,
-                &PhongBlock::<LOG, JAC>([p[0], p[1], p[2]]),
-            );
+            let acc = drive(rows, range, cols, &PhongBlock([p[0], p[1], p[2]], res));
             finish::<3>(&acc, g, gr)
         }
         Lane::Ggx => {
             let k = Ggx::new([p[0], p[1], p[2], p[3]]);
             let cols = [&rows.nl, &rows.ne, &rows.nh, &rows.eh, &rows.target];
-            let acc = drive(rows, range, cols, &GgxBlock::<LOG, JAC>(k));
+            let acc = drive(rows, range, cols, &GgxBlock(k, res));
+            finish::<4>(&acc, g, gr)
+        }
+        Lane::Ggx2 => {
+            // alpha1, ps1, alpha2, ps2, n, pd.
+            let k1 = Ggx::new([p[0], p[4], p[1], p[5]]);
+            let k2 = Ggx::new([p[2], p[4], p[3], p[5]]);
+            let cols = [&rows.nl, &rows.ne, &rows.nh, &rows.eh, &rows.target];
+            let acc = drive(rows, range, cols, &Ggx2Block(k1, k2, res));
+            finish::<6>(&acc, g, gr)
+        }
+        Lane::Ts(dist) => {
+            let (d2, nh) = (rows.theta_h(), &rows.nh);
+            let x = if dist == Distribution::D2 { d2 } else { nh };
+            let cols = [&rows.nl, x, &rows.eh, &rows.g_ne, &rows.target];
+            let acc = match dist {
+                Distribution::D1 => drive(rows, range, cols, &TsBlock::<1, _, _, _>(p, res)),
+                Distribution::D2 => drive(rows, range, cols, &TsBlock::<2, _, _, _>(p, res)),
+                Distribution::D3 => drive(rows, range, cols, &TsBlock::<3, _, _, _>(p, res)),
+                Distribution::Abc => {
+                    let acc = drive(rows, range, cols, &AbcBlock(p, res));
+                    return finish::<5>(&acc, g, gr);
+                }
+            };
             finish::<4>(&acc, g, gr)
         }
     }
@@ -160,7 +208,7 @@ pub(super) fn drive<B: Block>(
 #[inline(always)]
 pub(super) fn accumulate_lane<const N: usize>(acc: &mut Acc, l: usize, r: f64, j: [f64; N]) {
     acc[0][l] += 0.5 * r * r;
-    let mut t = 5;
+    let mut t = TRI;
     for a in 0..N {
         acc[1 + a][l] += j[a] * r;
         for b in a..N {
@@ -170,14 +218,37 @@ pub(super) fn accumulate_lane<const N: usize>(acc: &mut Acc, l: usize, r: f64, j
     }
 }
 
-/// The lane sums into `g`, `gr`; returns Σ ½r².
-fn finish<const N: usize>(
+/// [`accumulate_lane`] with a robust loss: ρ(r) and the IRLS weight w = ρ'(r)/r on the
+/// Jacobian's terms, in the row path's order (wj·r, wj·j).
+#[inline(always)]
+fn accumulate_robust<const N: usize>(
+    acc: &mut Acc,
+    l: usize,
+    rho: f64,
+    w: f64,
+    r: f64,
+    j: [f64; N],
+) {
+    acc[0][l] += rho;
+    let mut t = TRI;
+    for a in 0..N {
+        let wa = w * j[a];
+        acc[1 + a][l] += wa * r;
+        for b in a..N {
+            acc[t][l] += wa * j[b];
+            t += 1;
+        }
+    }
+}
+
+/// The lane sums into `g`, `gr`; returns Σ ρ(r).
+pub(super) fn finish<const N: usize>(
     acc: &Acc,
     g: &mut [[f64; MAX_PARAMS]; MAX_PARAMS],
     gr: &mut [f64; MAX_PARAMS],
 ) -> f64 {
     let lane_sum = |k: usize| acc[k].iter().sum::<f64>();
-    let mut t = 5;
+    let mut t = TRI;
     for a in 0..N {
         gr[a] += lane_sum(1 + a);
         for b in a..N {
@@ -188,31 +259,43 @@ fn finish<const N: usize>(
     lane_sum(0)
 }
 
-/// Residuals and Jacobian rows of one block from y = cosθi f_r and dy/dθ: the log loss
-/// r = ln(1 + y) − target, dr/dθ = (dy/dθ)/(1 + y); the linear loss r = y/cosθi − target,
-/// dr/dθ = (dy/dθ)/cosθi.
-#[inline(always)]
-fn residuals<const LOG: bool, const JAC: bool, const N: usize>(
-    nl: &[f64; LANES],
-    y: &[f64; LANES],
-    dy: &[[f64; LANES]; N],
-    tg: &[f64; LANES],
-    sw: &[f64; LANES],
-    acc: &mut Acc,
-) {
-    let (fy, scale) = if LOG {
-        lanes::ln_1p(y)
-    } else {
-        let inl: [f64; LANES] = std::array::from_fn(|l| 1.0 / nl[l]);
-        (std::array::from_fn(|l| y[l] * inl[l]), inl)
-    };
-    for l in 0..LANES {
-        let r = sw[l] * (fy[l] - tg[l]);
-        if JAC {
-            let s = sw[l] * scale[l];
-            accumulate_lane::<N>(acc, l, r, std::array::from_fn(|a| s * dy[a][l]));
+impl<const LOG: bool, const JAC: bool, const ROB: bool> Res<LOG, JAC, ROB> {
+    /// Residuals and Jacobian rows of one block from y = cosθi f_r and dy/dθ: the log loss
+    /// r = ln(1 + y) − target, dr/dθ = (dy/dθ)/(1 + y); the linear loss r = y/cosθi − target,
+    /// dr/dθ = (dy/dθ)/cosθi; ρ(r) of the robust loss, if any.
+    #[inline(always)]
+    fn add<const N: usize>(
+        self,
+        nl: &[f64; LANES],
+        y: &[f64; LANES],
+        dy: &[[f64; LANES]; N],
+        tg: &[f64; LANES],
+        sw: &[f64; LANES],
+        acc: &mut Acc,
+    ) {
+        let (fy, scale) = if LOG {
+            lanes::ln_1p(y)
         } else {
-            acc[0][l] += 0.5 * r * r;
+            let inl: [f64; LANES] = std::array::from_fn(|l| 1.0 / nl[l]);
+            (std::array::from_fn(|l| y[l] * inl[l]), inl)
+        };
+        for l in 0..LANES {
+            let r = sw[l] * (fy[l] - tg[l]);
+            if ROB {
+                let rho = self.0.rho(r);
+                if JAC {
+                    let s = sw[l] * scale[l];
+                    let j = std::array::from_fn(|a| s * dy[a][l]);
+                    accumulate_robust::<N>(acc, l, rho, self.0.weight(r), r, j);
+                } else {
+                    acc[0][l] += rho;
+                }
+            } else if JAC {
+                let s = sw[l] * scale[l];
+                accumulate_lane::<N>(acc, l, r, std::array::from_fn(|a| s * dy[a][l]));
+            } else {
+                acc[0][l] += 0.5 * r * r;
+            }
         }
     }
 }
@@ -220,37 +303,27 @@ fn residuals<const LOG: bool, const JAC: bool, const N: usize>(
 /// One block of Phong or Blinn–Phong (c1, ps, pd): columns nl, x (R·E or N·H), target.
 /// y = cosθi f_r = (pd cosθi + ps x^c1)/π with x^c1 = e^(c1 ln x) (0 where x ≤ 0), as in
 /// `model::phong::brdf_grad`.
-struct PhongBlock<const LOG: bool, const JAC: bool>([f64; 3]);
+struct PhongBlock<const LOG: bool, const JAC: bool, const ROB: bool>([f64; 3], Res<LOG, JAC, ROB>);
 
-impl<const LOG: bool, const JAC: bool> Block for PhongBlock<LOG, JAC> {
+impl<const LOG: bool, const JAC: bool, const ROB: bool> Block for PhongBlock<LOG, JAC, ROB> {
     #[inline(always)]
     fn run(&self, c: &[[f64; LANES]; 5], sw: &[f64; LANES], acc: &mut Acc) {
-        phong_block::<LOG, JAC>(self.0, c, sw, acc)
+        let [nl, x, tg, _, _] = c;
+        let (c1, ps, pd) = (self.0[0], self.0[1], self.0[2]);
+        let xs: [f64; LANES] = std::array::from_fn(|l| if x[l] > 0.0 { x[l] } else { 1.0 });
+        let lx = lanes::ln(&xs);
+        let e = lanes::exp(&std::array::from_fn(|l| c1 * lx[l]));
+        let mut y = [0.0f64; LANES];
+        let mut dy = [[0.0f64; LANES]; 3];
+        for l in 0..LANES {
+            let s = if x[l] > 0.0 { e[l] } else { 0.0 };
+            y[l] = (pd * nl[l] + ps * s) * FRAC_1_PI;
+            dy[0][l] = ps * s * lx[l] * FRAC_1_PI;
+            dy[1][l] = s * FRAC_1_PI;
+            dy[2][l] = nl[l] * FRAC_1_PI;
+        }
+        self.1.add::<3>(nl, &y, &dy, tg, sw, acc);
     }
-}
-
-#[inline(always)]
-fn phong_block<const LOG: bool, const JAC: bool>(
-    p: [f64; 3],
-    c: &[[f64; LANES]; 5],
-    sw: &[f64; LANES],
-    acc: &mut Acc,
-) {
-    let [nl, x, tg, _, _] = c;
-    let (c1, ps, pd) = (p[0], p[1], p[2]);
-    let xs: [f64; LANES] = std::array::from_fn(|l| if x[l] > 0.0 { x[l] } else { 1.0 });
-    let lx = lanes::ln(&xs);
-    let e = lanes::exp(&std::array::from_fn(|l| c1 * lx[l]));
-    let mut y = [0.0f64; LANES];
-    let mut dy = [[0.0f64; LANES]; 3];
-    for l in 0..LANES {
-        let s = if x[l] > 0.0 { e[l] } else { 0.0 };
-        y[l] = (pd * nl[l] + ps * s) * FRAC_1_PI;
-        dy[0][l] = ps * s * lx[l] * FRAC_1_PI;
-        dy[1][l] = s * FRAC_1_PI;
-        dy[2][l] = nl[l] * FRAC_1_PI;
-    }
-    residuals::<LOG, JAC, 3>(nl, &y, &dy, tg, sw, acc);
 }
 
 /// GGX–Smith at fixed parameters (α, n, ps, pd).
@@ -285,54 +358,224 @@ impl Ggx {
         let g = 2.0 / (1.0 + s);
         (g, -g * g * 0.5 * self.alpha * tan2 / s)
     }
+
+    /// The lobe D G1(L) G1(E)/(4 N·E) (cosθi f_r per unit ps F) at N·H² = `nh2` (tan² θh =
+    /// `tan2`) and its α-derivative.
+    #[inline(always)]
+    fn lobe(&self, nh2: f64, tan2: f64, nl: f64, ne: f64) -> (f64, f64) {
+        let q = self.a2 + tan2;
+        let d = self.a2 / (PI * nh2 * nh2 * q * q);
+        let dd = d * (2.0 / self.alpha - 4.0 * self.alpha / q);
+        let (gl, dgl) = self.g1(nl);
+        let (ge, dge) = self.g1(ne);
+        let w = 0.25 / ne;
+        (
+            d * gl * ge * w,
+            w * (dd * gl * ge + d * (dgl * ge + gl * dge)),
+        )
+    }
+}
+
+/// [`Ggx::lobe`] per unit cosθi at rows `range`: D G1(L) G1(E)/(4 N·L N·E), 0 where N·H ≤ 0
+/// or E·H ≤ 0.
+pub(super) fn ggx_lobe_values(alpha: f64, rows: &Rows, range: std::ops::Range<usize>) -> Vec<f64> {
+    let k = Ggx::new([alpha, 1.5, 1.0, 0.0]);
+    range
+        .map(|i| {
+            let (nh, eh) = (rows.nh[i], rows.eh[i]);
+            if nh > 0.0 && eh > 0.0 {
+                let nh2 = nh * nh;
+                let tan2 = (1.0 - nh2).max(0.0) / nh2;
+                k.lobe(nh2, tan2, rows.nl[i], rows.ne[i]).0 / rows.nl[i]
+            } else {
+                0.0
+            }
+        })
+        .collect()
 }
 
 /// One block of GGX–Smith: columns nl, ne, nh, eh, target. y = cosθi f_r =
 /// pd cosθi/π + ps F D G1(L) G1(E)/(4 N·E), zero specular where N·H ≤ 0 or E·H ≤ 0, as in
 /// `model::ggx_smith::brdf_grad`.
-struct GgxBlock<const LOG: bool, const JAC: bool>(Ggx);
+struct GgxBlock<const LOG: bool, const JAC: bool, const ROB: bool>(Ggx, Res<LOG, JAC, ROB>);
 
-impl<const LOG: bool, const JAC: bool> Block for GgxBlock<LOG, JAC> {
+impl<const LOG: bool, const JAC: bool, const ROB: bool> Block for GgxBlock<LOG, JAC, ROB> {
     #[inline(always)]
     fn run(&self, c: &[[f64; LANES]; 5], sw: &[f64; LANES], acc: &mut Acc) {
-        ggx_block::<LOG, JAC>(&self.0, c, sw, acc)
+        let k = &self.0;
+        let [nl, ne, nh, eh, tg] = c;
+        let mut y = [0.0f64; LANES];
+        let mut dy = [[0.0f64; LANES]; 4];
+        for l in 0..LANES {
+            let ok = nh[l] > 0.0 && eh[l] > 0.0;
+            let h = if ok { nh[l] } else { 1.0 };
+            let nh2 = h * h;
+            let tan2 = (1.0 - nh2).max(0.0) / nh2;
+            let q = k.a2 + tan2;
+            let d = k.a2 / (PI * nh2 * nh2 * q * q);
+            let dd = d * (2.0 / k.alpha - 4.0 * k.alpha / q);
+            let (gl, dgl) = k.g1(nl[l]);
+            let (ge, dge) = k.g1(ne[l]);
+            let (f, df) = fresnel(k.n, k.n2m1, if ok { eh[l] } else { 1.0 });
+            let w = 0.25 / ne[l];
+            let a = if ok { f * d * gl * ge * w } else { 0.0 };
+            y[l] = k.pd * nl[l] * FRAC_1_PI + k.ps * a;
+            dy[0][l] = if ok {
+                k.ps * f * w * (dd * gl * ge + d * (dgl * ge + gl * dge))
+            } else {
+                0.0
+            };
+            dy[1][l] = if ok { k.ps * df * d * gl * ge * w } else { 0.0 };
+            dy[2][l] = a;
+            dy[3][l] = nl[l] * FRAC_1_PI;
+        }
+        self.1.add::<4>(nl, &y, &dy, tg, sw, acc);
     }
 }
 
-#[inline(always)]
-fn ggx_block<const LOG: bool, const JAC: bool>(
-    k: &Ggx,
-    c: &[[f64; LANES]; 5],
-    sw: &[f64; LANES],
-    acc: &mut Acc,
-) {
-    let [nl, ne, nh, eh, tg] = c;
-    let mut y = [0.0f64; LANES];
-    let mut dy = [[0.0f64; LANES]; 4];
-    for l in 0..LANES {
-        let ok = nh[l] > 0.0 && eh[l] > 0.0;
-        let h = if ok { nh[l] } else { 1.0 };
-        let nh2 = h * h;
-        let tan2 = (1.0 - nh2).max(0.0) / nh2;
-        let q = k.a2 + tan2;
-        let d = k.a2 / (PI * nh2 * nh2 * q * q);
-        let dd = d * (2.0 / k.alpha - 4.0 * k.alpha / q);
-        let (gl, dgl) = k.g1(nl[l]);
-        let (ge, dge) = k.g1(ne[l]);
-        let (f, df) = fresnel(k.n, k.n2m1, if ok { eh[l] } else { 1.0 });
-        let w = 0.25 / ne[l];
-        let a = if ok { f * d * gl * ge * w } else { 0.0 };
-        y[l] = k.pd * nl[l] * FRAC_1_PI + k.ps * a;
-        dy[0][l] = if ok {
-            k.ps * f * w * (dd * gl * ge + d * (dgl * ge + gl * dge))
-        } else {
-            0.0
-        };
-        dy[1][l] = if ok { k.ps * df * d * gl * ge * w } else { 0.0 };
-        dy[2][l] = a;
-        dy[3][l] = nl[l] * FRAC_1_PI;
+/// One block of GGX–Smith with two lobes (alpha1, ps1, alpha2, ps2, n, pd; the lobes as
+/// [`Ggx`] with their ps, sharing n and pd): columns nl, ne, nh, eh, target. y = pd cosθi/π +
+/// F (ps1 L1 + ps2 L2), zero specular where N·H ≤ 0 or E·H ≤ 0, as in
+/// `model::ggx_smith_2::brdf_grad`.
+struct Ggx2Block<const LOG: bool, const JAC: bool, const ROB: bool>(Ggx, Ggx, Res<LOG, JAC, ROB>);
+
+impl<const LOG: bool, const JAC: bool, const ROB: bool> Block for Ggx2Block<LOG, JAC, ROB> {
+    #[inline(always)]
+    fn run(&self, c: &[[f64; LANES]; 5], sw: &[f64; LANES], acc: &mut Acc) {
+        let (k1, k2) = (&self.0, &self.1);
+        let [nl, ne, nh, eh, tg] = c;
+        let mut y = [0.0f64; LANES];
+        let mut dy = [[0.0f64; LANES]; 6];
+        for l in 0..LANES {
+            let ok = nh[l] > 0.0 && eh[l] > 0.0;
+            let h = if ok { nh[l] } else { 1.0 };
+            let nh2 = h * h;
+            let tan2 = (1.0 - nh2).max(0.0) / nh2;
+            let (l1, dl1) = k1.lobe(nh2, tan2, nl[l], ne[l]);
+            let (l2, dl2) = k2.lobe(nh2, tan2, nl[l], ne[l]);
+            let (f, df) = fresnel(k1.n, k1.n2m1, if ok { eh[l] } else { 1.0 });
+            let m = if ok { 1.0 } else { 0.0 };
+            let spec = k1.ps * l1 + k2.ps * l2;
+            y[l] = k1.pd * nl[l] * FRAC_1_PI + m * f * spec;
+            dy[0][l] = m * k1.ps * f * dl1;
+            dy[1][l] = m * f * l1;
+            dy[2][l] = m * k2.ps * f * dl2;
+            dy[3][l] = m * f * l2;
+            dy[4][l] = m * df * spec;
+            dy[5][l] = nl[l] * FRAC_1_PI;
+        }
+        self.2.add::<6>(nl, &y, &dy, tg, sw, acc);
     }
-    residuals::<LOG, JAC, 4>(nl, &y, &dy, tg, sw, acc);
+}
+
+/// One block of Blinn's Torrance–Sparrow with D1 (`D` = 1), D2 (2) or D3 (3): parameters n, c,
+/// ps, pd; columns nl, x, eh, G/N·E, target with x = N·H (D1, D3) or θh = acos N·H (D2).
+/// y = cosθi f_r = pd cosθi/π + ps D F G/(π N·E), as in `model::torrance_sparrow::brdf_grad`
+/// with [`Distribution::eval_dc`]: D1 = (N·H)^c1 = e^(c1 ln N·H) (0 where N·H ≤ 0),
+/// D2 = e^(−(θh c2)²), D3 as [`TsD3`].
+struct TsBlock<const D: u8, const LOG: bool, const JAC: bool, const ROB: bool>(
+    [f64; MAX_PARAMS],
+    Res<LOG, JAC, ROB>,
+);
+
+impl<const D: u8, const LOG: bool, const JAC: bool, const ROB: bool> Block
+    for TsBlock<D, LOG, JAC, ROB>
+{
+    #[inline(always)]
+    fn run(&self, c: &[[f64; LANES]; 5], sw: &[f64; LANES], acc: &mut Acc) {
+        let p = &self.0;
+        let [nl, x, eh, gn, tg] = c;
+        let (n, cc, ps, pd) = (p[0], p[1], p[2], p[3]);
+        let n2m1 = n * n - 1.0;
+        // D·w and dD/dc·w, w = G/(π N·E), per lane.
+        let mut dw = [0.0f64; LANES];
+        let mut ddw = [0.0f64; LANES];
+        match D {
+            1 => {
+                let xc: [f64; LANES] = std::array::from_fn(|l| x[l].clamp(0.0, 1.0));
+                let xs: [f64; LANES] =
+                    std::array::from_fn(|l| if xc[l] > 0.0 { xc[l] } else { 1.0 });
+                let lx = lanes::ln(&xs);
+                let e = lanes::exp(&std::array::from_fn(|l| cc * lx[l]));
+                for l in 0..LANES {
+                    let d = if xc[l] > 0.0 { e[l] } else { 0.0 };
+                    let w = gn[l] * FRAC_1_PI;
+                    dw[l] = d * w;
+                    ddw[l] = d * lx[l] * w;
+                }
+            }
+            2 => {
+                let e = lanes::exp(&std::array::from_fn(|l| {
+                    let t = x[l] * cc;
+                    -t * t
+                }));
+                for l in 0..LANES {
+                    let w = gn[l] * FRAC_1_PI;
+                    dw[l] = e[l] * w;
+                    ddw[l] = -2.0 * x[l] * x[l] * cc * e[l] * w;
+                }
+            }
+            _ => {
+                let k = TsD3::new([n, cc, 1.0, 0.0]);
+                for l in 0..LANES {
+                    // TsD3's a with F = 1: D w and dD/dc w.
+                    let (d, dd) = k.d(x[l]);
+                    let w = gn[l] * FRAC_1_PI;
+                    dw[l] = d * w;
+                    ddw[l] = dd * w;
+                }
+            }
+        }
+        let mut y = [0.0f64; LANES];
+        let mut dy = [[0.0f64; LANES]; 4];
+        for l in 0..LANES {
+            let (f, df) = fresnel(n, n2m1, eh[l]);
+            let a = dw[l] * f;
+            y[l] = nl[l] * pd * FRAC_1_PI + ps * a;
+            dy[0][l] = ps * dw[l] * df;
+            dy[1][l] = ps * ddw[l] * f;
+            dy[2][l] = a;
+            dy[3][l] = nl[l] * FRAC_1_PI;
+        }
+        self.1.add::<4>(nl, &y, &dy, tg, sw, acc);
+    }
+}
+
+/// One block of Torrance–Sparrow with Löw et al.'s ABC lobe D = (1 + b (1 − N·H))^(−c):
+/// parameters n, b, c, ps, pd; columns nl, N·H, eh, G/N·E, target; ∂D/∂b = −c (1 − N·H) D/u,
+/// ∂D/∂c = −ln(u) D, u = 1 + b (1 − N·H), as in `model::torrance_sparrow::abc_brdf_grad`.
+struct AbcBlock<const LOG: bool, const JAC: bool, const ROB: bool>(
+    [f64; MAX_PARAMS],
+    Res<LOG, JAC, ROB>,
+);
+
+impl<const LOG: bool, const JAC: bool, const ROB: bool> Block for AbcBlock<LOG, JAC, ROB> {
+    #[inline(always)]
+    fn run(&self, c: &[[f64; LANES]; 5], sw: &[f64; LANES], acc: &mut Acc) {
+        let p = &self.0;
+        let [nl, nh, eh, gn, tg] = c;
+        let (n, b, cc, ps, pd) = (p[0], p[1], p[2], p[3], p[4]);
+        let n2m1 = n * n - 1.0;
+        let x: [f64; LANES] = std::array::from_fn(|l| 1.0 - nh[l].clamp(0.0, 1.0));
+        let u: [f64; LANES] = std::array::from_fn(|l| 1.0 + b * x[l]);
+        let lu = lanes::ln(&u);
+        let d = lanes::exp(&std::array::from_fn(|l| -cc * lu[l]));
+        let mut y = [0.0f64; LANES];
+        let mut dy = [[0.0f64; LANES]; 5];
+        for l in 0..LANES {
+            let (f, df) = fresnel(n, n2m1, eh[l]);
+            let w = gn[l] * FRAC_1_PI;
+            let s = ps * f * w;
+            let a = d[l] * f * w;
+            y[l] = nl[l] * pd * FRAC_1_PI + ps * a;
+            dy[0][l] = ps * d[l] * df * w;
+            dy[1][l] = -s * cc * x[l] * d[l] / u[l];
+            dy[2][l] = -s * lu[l] * d[l];
+            dy[3][l] = a;
+            dy[4][l] = nl[l] * FRAC_1_PI;
+        }
+        self.1.add::<5>(nl, &y, &dy, tg, sw, acc);
+    }
 }
 
 /// Exact Fresnel reflectance of an index `n` at cos θ = `eh` and its n-derivative, without
@@ -376,7 +619,7 @@ pub(super) fn fresnel(n: f64, n2m1: f64, eh: f64) -> (f64, f64) {
 mod tests {
     use super::super::{Row, kernel_rows_any};
     use super::*;
-    use crate::model::{Distribution, Geometry};
+    use crate::model::Geometry;
     use rand::{Rng, SeedableRng};
 
     /// Random rows over the hemisphere (targets of either loss), weighted or not.
@@ -405,50 +648,112 @@ mod tests {
         rows
     }
 
+    /// Parameters of `kind` (with `dist`) drawn over sharp to broad lobes.
+    fn random_params(rng: &mut impl Rng, kind: ModelKind, dist: Distribution) -> Vec<f64> {
+        let mut ten = |lo: f64, hi: f64| 10f64.powf(rng.random_range(lo..hi));
+        match (kind, dist) {
+            (ModelKind::GgxSmith, _) => vec![
+                ten(-3.0, 0.0),
+                1.01 + ten(-2.0, 1.5),
+                ten(-1.0, 0.3),
+                ten(-2.0, 0.3),
+            ],
+            (ModelKind::GgxSmith2, _) => {
+                let (a, b) = (ten(-3.0, 0.0), ten(-3.0, 0.0));
+                vec![
+                    a.min(b),
+                    ten(-1.0, 0.3),
+                    a.max(b),
+                    ten(-1.0, 0.3),
+                    1.01 + ten(-2.0, 1.5),
+                    ten(-2.0, 0.3),
+                ]
+            }
+            (ModelKind::TorranceSparrow, Distribution::D1) => vec![
+                1.01 + ten(-2.0, 2.5),
+                ten(-1.0, 4.0),
+                ten(-1.0, 0.3),
+                ten(-2.0, 0.3),
+            ],
+            (ModelKind::TorranceSparrow, Distribution::D2) => vec![
+                1.01 + ten(-2.0, 2.5),
+                ten(-1.0, 2.5),
+                ten(-1.0, 0.3),
+                ten(-2.0, 0.3),
+            ],
+            (ModelKind::TorranceSparrow, Distribution::D3) => vec![
+                1.01 + ten(-2.0, 2.5),
+                ten(-2.0, 0.0),
+                ten(-1.0, 0.3),
+                ten(-2.0, 0.3),
+            ],
+            (ModelKind::TorranceSparrow, Distribution::Abc) => vec![
+                1.01 + ten(-2.0, 2.5),
+                ten(0.0, 5.0),
+                ten(-0.5, 0.6),
+                ten(-1.0, 0.3),
+                ten(-2.0, 0.3),
+            ],
+            _ => vec![ten(-2.0, 5.0), ten(-1.0, 0.3), ten(-2.0, 0.3)],
+        }
+    }
+
     /// Each lane kernel gives the cost and normal equations of the row-by-row path through
-    /// `Model::brdf_grad` (an independent code path: library `powf`, `ln_1p`, the model's own
-    /// Fresnel, D and G) to 1e-11 relative, for both losses, weighted or not, for any row count
-    /// (a tail shorter than a block included), sharp and broad lobes.
+    /// `Model::brdf_grad` (an independent code path: library `powf`, `exp`, `acos`, `ln_1p`, the
+    /// model's own Fresnel, D and G, the robust ρ and weight) to 1e-11 relative, for both
+    /// losses, without and with a robust weight (Huber, Cauchy at a threshold some residuals
+    /// pass), weighted rows or not, for any row count (a tail shorter than a block included),
+    /// sharp and broad lobes, every model with a kernel.
     #[test]
     fn lane_kernels_match_row_kernel() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-11 * (a.abs() + b.abs()) + 1e-300;
-        for kind in [ModelKind::Phong, ModelKind::BlinnPhong, ModelKind::GgxSmith] {
+        let models = [
+            (ModelKind::Phong, Distribution::D3),
+            (ModelKind::BlinnPhong, Distribution::D3),
+            (ModelKind::GgxSmith, Distribution::D3),
+            (ModelKind::GgxSmith2, Distribution::D3),
+            (ModelKind::TorranceSparrow, Distribution::D1),
+            (ModelKind::TorranceSparrow, Distribution::D2),
+            (ModelKind::TorranceSparrow, Distribution::D3),
+            (ModelKind::TorranceSparrow, Distribution::Abc),
+        ];
+        let mut robust_hits = 0;
+        for (kind, dist) in models {
             for loss in [Loss::Log, Loss::Linear] {
                 for (case, weighted) in [(0, false), (1, true), (2, false), (3, true)] {
                     let m = [1, 7, 8, 1003][case];
                     let rows = random_rows(&mut rng, m, weighted, loss);
-                    for _ in 0..20 {
-                        let p: Vec<f64> = match kind {
-                            ModelKind::GgxSmith => vec![
-                                10f64.powf(rng.random_range(-3.0..0.0)),
-                                rng.random_range(1.01..30.0),
-                                rng.random_range(0.0..2.0),
-                                rng.random_range(0.0..2.0),
-                            ],
-                            _ => vec![
-                                10f64.powf(rng.random_range(-2.0..5.0)),
-                                rng.random_range(0.0..2.0),
-                                rng.random_range(0.0..2.0),
-                            ],
-                        };
-                        let model = Model::new(kind, Distribution::D3, &p).unwrap();
-                        let lane =
-                            Lane::of(&model, Robust::None, Loss::Log).expect("a lane kernel");
+                    for t in 0..18 {
+                        let p = random_params(&mut rng, kind, dist);
+                        let model = Model::new(kind, dist, &p).unwrap();
+                        let lane = Lane::of(&model, loss).expect("a lane kernel");
+                        let delta = rng.random_range(0.01..0.5);
+                        let rob =
+                            [Robust::None, Robust::Huber(delta), Robust::Cauchy(delta)][t % 3];
                         let (mut g1, mut r1) = ([[0.0; MAX_PARAMS]; MAX_PARAMS], [0.0; MAX_PARAMS]);
                         let (mut g2, mut r2) = ([[0.0; MAX_PARAMS]; MAX_PARAMS], [0.0; MAX_PARAMS]);
-                        let c1 = rows_normal(lane, loss, &rows, 0..m, &model, &mut g1, &mut r1);
-                        assert_eq!(c1, rows_cost(lane, loss, &rows, 0..m, &model));
-                        let c2 = kernel_rows_any(
-                            &rows,
-                            0..m,
-                            loss,
-                            &model,
-                            Robust::None,
-                            &mut g2,
-                            &mut r2,
-                        );
-                        let what = format!("{kind:?} {loss:?} m {m} {p:?}");
+                        let how = (lane, loss, rob);
+                        let c1 = rows_normal(how, &rows, 0..m, &model, &mut g1, &mut r1);
+                        assert_eq!(c1, rows_cost(lane, loss, rob, &rows, 0..m, &model));
+                        let c2 = kernel_rows_any(&rows, 0..m, loss, &model, rob, &mut g2, &mut r2);
+                        if rob != Robust::None
+                            && (c2
+                                - kernel_rows_any(
+                                    &rows,
+                                    0..m,
+                                    loss,
+                                    &model,
+                                    Robust::None,
+                                    &mut g2.clone(),
+                                    &mut r2.clone(),
+                                ))
+                            .abs()
+                                > 1e-9 * c2
+                        {
+                            robust_hits += 1;
+                        }
+                        let what = format!("{kind:?} {dist:?} {loss:?} {rob:?} m {m} {p:?}");
                         assert!(close(c1, c2), "cost {c1} vs {c2} ({what})");
                         for a in 0..p.len() {
                             assert!(
@@ -470,25 +775,43 @@ mod tests {
                 }
             }
         }
+        // The robust cases did cut residuals (the comparison exercised ρ and its weight).
+        assert!(robust_hits > 100, "{robust_hits}");
     }
 
-    /// Robust weights and Phong's fast power keep the row path; Torrance–Sparrow and Lambert
-    /// have no kernel here.
+    /// The kernel of Torrance–Sparrow D2 reads θh from the rows' cached column; rows pushed
+    /// after it was computed get theirs (the cache is rebuilt).
+    #[test]
+    fn theta_h_follows_the_rows() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut rows = random_rows(&mut rng, 5, false, Loss::Log);
+        assert_eq!(rows.theta_h().len(), 5);
+        let more = random_rows(&mut rng, 4, false, Loss::Log);
+        rows.extend(&more);
+        assert_eq!(rows.theta_h().len(), 9);
+        for i in 0..9 {
+            assert_eq!(rows.theta_h()[i], rows.nh[i].clamp(0.0, 1.0).acos());
+        }
+    }
+
+    /// Phong's fast power, the pixel loss and Lambert keep the row path; robust weights and
+    /// every Torrance–Sparrow distribution have kernels.
     #[test]
     fn kernels_apply_where_they_compute_the_same() {
         let phong = Model::new(ModelKind::Phong, Distribution::D3, &[10.0, 1.0, 0.1]).unwrap();
-        assert_eq!(Lane::of(&phong, Robust::None, Loss::Log), Some(Lane::Phong));
-        assert_eq!(Lane::of(&phong, Robust::Huber(1.0), Loss::Log), None);
-        assert_eq!(Lane::of(&phong, Robust::None, Loss::Pixel), None);
+        assert_eq!(Lane::of(&phong, Loss::Log), Some(Lane::Phong));
+        assert_eq!(Lane::of(&phong, Loss::Pixel), None);
         let mut fast = phong;
         fast.fast_pow = Some(3);
-        assert_eq!(Lane::of(&fast, Robust::None, Loss::Log), None);
+        assert_eq!(Lane::of(&fast, Loss::Log), None);
+        let lambert = Model::new(ModelKind::Lambert, Distribution::D3, &[0.5]).unwrap();
+        assert_eq!(Lane::of(&lambert, Loss::Linear), None);
         let ts = Model::new(
             ModelKind::TorranceSparrow,
             Distribution::D3,
             &[1.8, 0.35, 0.6, 0.3],
         )
         .unwrap();
-        assert_eq!(Lane::of(&ts, Robust::None, Loss::Log), None);
+        assert_eq!(Lane::of(&ts, Loss::Log), Some(Lane::Ts(Distribution::D3)));
     }
 }

@@ -7,6 +7,10 @@ mod kernels;
 use crate::lanes::{self, LANES};
 use crate::model::{Distribution, Geometry, MAX_PARAMS, Model, ModelKind, ParamSpec, Scale};
 
+/// Rows per channel above which a fit refines its candidates on a subsample of this many rows
+/// per channel before polishing on every row.
+pub const SUBSAMPLE_ROWS: usize = 2_000;
+
 /// Which residual the fit minimises (½ Σ r²).
 #[derive(
     Clone,
@@ -280,6 +284,9 @@ pub struct Rows {
     /// √weight; empty when the rows are unweighted (every weight 1).
     pub sw: Vec<f64>,
     weighted: bool,
+    /// θh = acos N·H (N·H clamped to [0, 1]), computed on first use (Torrance–Sparrow D2's
+    /// kernel) and kept with the rows.
+    theta_h: std::sync::OnceLock<Vec<f64>>,
 }
 
 impl Rows {
@@ -296,7 +303,14 @@ impl Rows {
             target: v(),
             sw: if weighted { v() } else { Vec::new() },
             weighted,
+            theta_h: std::sync::OnceLock::new(),
         }
+    }
+
+    /// θh = acos N·H of every row (N·H clamped to [0, 1]), computed once.
+    pub fn theta_h(&self) -> &Vec<f64> {
+        self.theta_h
+            .get_or_init(|| self.nh.iter().map(|x| x.clamp(0.0, 1.0).acos()).collect())
     }
 
     /// Number of rows.
@@ -316,6 +330,7 @@ impl Rows {
 
     /// Append a row (its weight is kept only if the columns are weighted).
     pub fn push(&mut self, r: &Row) {
+        self.theta_h = std::sync::OnceLock::new();
         self.nl.push(r.g.nl);
         self.ne.push(r.g.ne);
         self.nh.push(r.g.nh);
@@ -408,6 +423,7 @@ impl Rows {
             target,
             sw,
             weighted,
+            theta_h: std::sync::OnceLock::new(),
         }
     }
 
@@ -424,6 +440,7 @@ impl Rows {
 
     /// Append every row of `other`.
     pub fn extend(&mut self, other: &Rows) {
+        self.theta_h = std::sync::OnceLock::new();
         if other.weighted && !self.weighted {
             self.sw = vec![1.0; self.len()];
             self.weighted = true;
@@ -557,6 +574,7 @@ impl BrdfProblem {
             target: take(&r.target),
             sw,
             weighted,
+            theta_h: std::sync::OnceLock::new(),
         };
         BrdfProblem {
             rows: std::sync::Arc::new(rows),
@@ -710,8 +728,15 @@ impl Problem for BrdfProblem {
                     g[a][..4].copy_from_slice(&g4[a]);
                 }
                 cost
-            } else if let Some(lane) = kernels::Lane::of(model, robust, self.loss) {
-                kernels::rows_normal(lane, self.loss, &self.rows, lo..hi, model, &mut g, &mut gr)
+            } else if let Some(lane) = kernels::Lane::of(model, self.loss) {
+                kernels::rows_normal(
+                    (lane, self.loss, robust),
+                    &self.rows,
+                    lo..hi,
+                    model,
+                    &mut g,
+                    &mut gr,
+                )
             } else {
                 kernel_rows_any(
                     &self.rows,
@@ -754,8 +779,8 @@ impl Problem for BrdfProblem {
                 s += ts_d3_log_cost(&self.rows, lo..hi, p4(model));
                 continue;
             }
-            if let Some(lane) = kernels::Lane::of(model, robust, self.loss) {
-                s += kernels::rows_cost(lane, self.loss, &self.rows, lo..hi, model);
+            if let Some(lane) = kernels::Lane::of(model, self.loss) {
+                s += kernels::rows_cost(lane, self.loss, robust, &self.rows, lo..hi, model);
                 continue;
             }
             for i in lo..hi {
@@ -771,6 +796,12 @@ impl Problem for BrdfProblem {
         }
         s
     }
+}
+
+/// The GGX lobe D G1(L) G1(E)/(4 N·L N·E) of roughness `alpha` (GGX–Smith's f_r per unit
+/// ps·F; Walter et al. 2007, eqs. 33 and 34) at rows `range`, 0 where N·H ≤ 0 or E·H ≤ 0.
+pub fn ggx_lobe_values(alpha: f64, rows: &Rows, range: std::ops::Range<usize>) -> Vec<f64> {
+    kernels::ggx_lobe_values(alpha, rows, range)
 }
 
 /// f_r of `model` at rows `range` (the lane form of [`TsD3`] for Torrance–Sparrow with D3).
@@ -910,7 +941,7 @@ fn ts_d3_log_body<const JAC: bool>(
     let cols = [&rows.nl, &rows.nh, &rows.eh, &rows.g_ne, &rows.target];
     let acc = kernels::drive(rows, range, cols, &TsD3Block::<JAC>(k, pd_pi));
     let lane_sum = |k: usize| acc[k].iter().sum::<f64>();
-    let mut t = 5;
+    let mut t = kernels::TRI;
     for a in 0..4 {
         gr[a] += lane_sum(1 + a);
         for b in a..4 {
@@ -992,12 +1023,10 @@ impl TsD3 {
         }
     }
 
-    /// a = D3 F G/(π N·E), the specular term per unit ps times cosθi (so f_r = pd/π + ps a/N·L),
-    /// and its derivatives with respect to n and c3. The formulas of [`crate::model::fresnel_dn`]
-    /// and D3 in [`Distribution::eval_dc`], without branches (where those return early, the
-    /// selects below give the same) and with the divisions shared.
+    /// D3 and dD3/dc3 at cos θh = `nh`, without branches (0 where [`Distribution::eval_dc`]
+    /// returns early).
     #[inline(always)]
-    fn eval(&self, nh: f64, eh: f64, g_ne: f64) -> (f64, [f64; 2]) {
+    fn d(&self, nh: f64) -> (f64, f64) {
         // D3 = (c²/den)², den = x(c²−1) + 1, x = (N·H)²; dD/dc = 4c³(1 − x)/den³.
         let x = nh * nh;
         let den = x * (self.s - 1.0) + 1.0;
@@ -1010,6 +1039,16 @@ impl TsD3 {
         } else {
             0.0
         };
+        (d, dd)
+    }
+
+    /// a = D3 F G/(π N·E), the specular term per unit ps times cosθi (so f_r = pd/π + ps a/N·L),
+    /// and its derivatives with respect to n and c3. The formulas of [`crate::model::fresnel_dn`]
+    /// and D3 in [`Distribution::eval_dc`], without branches (where those return early, the
+    /// selects below give the same) and with the divisions shared.
+    #[inline(always)]
+    fn eval(&self, nh: f64, eh: f64, g_ne: f64) -> (f64, [f64; 2]) {
+        let (d, dd) = self.d(nh);
         let (f, df) = kernels::fresnel(self.n, self.n2m1, eh);
         let w = g_ne * std::f64::consts::FRAC_1_PI;
         (d * f * w, [d * df * w, dd * f * w])

@@ -20,7 +20,8 @@ pub(super) struct Search {
 /// the best polished on every row (robust loss, if any, on that last stage).
 pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Search {
     use rayon::prelude::*;
-    let sub = (full.rows.len() > 2_000 * full.layout.len()).then(|| full.subsample(2_000));
+    let per = super::problem::SUBSAMPLE_ROWS;
+    let sub = (full.rows.len() > per * full.layout.len()).then(|| full.subsample(per));
     let work = sub.as_ref().unwrap_or(full);
     let mut candidates: Vec<Vec<f64>> = Vec::new();
     if !opts.local_only {
