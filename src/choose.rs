@@ -482,7 +482,7 @@ fn fit_one(
 /// The scene's exposure as a factor on f_r cosθi: the irradiance its lights give (green) at
 /// the point the camera looks at, facing each light; a pixel of the test object shows about
 /// this × f_r cosθi (plus the ambient term, which this leaves out).
-fn exposure(scene: &Scene) -> f64 {
+pub fn exposure(scene: &Scene) -> f64 {
     scene
         .lights
         .iter()
@@ -494,10 +494,11 @@ fn exposure(scene: &Scene) -> f64 {
 /// shows ([`crate::fit::Loss::Pixel`]): the samples scaled to the scene's `exposure` and the
 /// display value of each, clipped as the PNG clips, compared; local refinements from the
 /// log-loss fit and from `global` (the model's fit to all the data; both scaled alike), the
-/// lower pixel cost kept and its f_r scaled back. So the result shows the scene's pixels no
-/// worse than the global fit does, by this measure. The physical checks are made again on
-/// the result. The log-loss fit stands where both refinements fail.
-fn refit_on_pixels(
+/// lower pixel cost kept and its f_r scaled back. Each configuration counts by its pixel
+/// count (the samples' weights), and a local fit never ends above its start, so the result's
+/// pixel cost is never above the global fit's. The physical checks are made again on the
+/// result. The log-loss fit stands where both refinements fail.
+pub fn refit_on_pixels(
     ds: &Dataset,
     start: FitResult,
     global: &Model,

@@ -64,10 +64,27 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
             .collect();
         iterations += polished.iter().map(|s| s.iterations).sum::<usize>();
         evaluations += polished.iter().map(|s| s.evaluations).sum::<usize>();
-        polished
+        let mut best = polished
             .into_iter()
             .min_by(|a, b| a.cost.total_cmp(&b.cost))
-            .expect("at least one candidate")
+            .expect("at least one candidate");
+        // A local fit never ends above its start: the subsample's basin can polish to a cost
+        // on every row above the start's own, and then the start is polished instead (the
+        // pixel-loss refit of `choose` relies on this to end no worse than the global fit).
+        if opts.local_only {
+            for x0 in &candidates {
+                let c0 = lsq::cost(full, x0, robust).unwrap_or(f64::INFINITY);
+                if c0 < best.cost {
+                    let s = lsq::solve(full, x0, opts.method, robust, &opts.limits);
+                    iterations += s.iterations;
+                    evaluations += s.evaluations;
+                    if s.cost < best.cost {
+                        best = s;
+                    }
+                }
+            }
+        }
+        best
     } else {
         sols.swap_remove(0)
     };
