@@ -6,7 +6,8 @@
 //! here, from ranges written here (not the models' declared ones), and refined by the local
 //! method alone (`local_only`). CI runs every 6th wavelength of the spectral files (and every
 //! channel of the RGB ones); `BRDFIT_CORPUS=full` runs every channel
-//! (`benches/corpus.sh` prints that table).
+//! (`benches/corpus.sh` prints that table); `BRDFIT_CORPUS_MODELS=ggx-smith-2,…` only the
+//! models named.
 
 mod common;
 
@@ -46,12 +47,29 @@ fn random_start(kind: ModelKind, dist: Distribution, rng: &mut impl Rng) -> Vec<
                 "c3" => log(1e-3, 1.0),
                 "c1" => log(0.3, 3e4),
                 "c2" => log(0.6, 800.0),
-                "alpha" => log(1e-3, 1.0),
-                "ps" => log(1e-2, 1e3),
+                "alpha" | "alpha1" | "alpha2" => log(1e-3, 1.0),
+                "b" => log(1.0, 1e7),
+                "c" => log(0.3, 5.0),
+                "ps" | "ps1" | "ps2" => log(1e-2, 1e3),
                 "pd" => log(1e-3, 1.0),
                 other => panic!("no range for {other}"),
             };
             (n.to_string(), v)
+        })
+        .collect()
+}
+
+/// The models checked: every model `--model all` compares, or those `BRDFIT_CORPUS_MODELS`
+/// names (comma separated, as `choose` spells them: `ggx-smith-2,torrance-sparrow-abc`).
+fn models() -> Vec<(ModelKind, Distribution)> {
+    let only = std::env::var("BRDFIT_CORPUS_MODELS").unwrap_or_default();
+    fit::all_models()
+        .into_iter()
+        .filter(|&(k, d)| {
+            only.is_empty()
+                || only
+                    .split(',')
+                    .any(|m| m.trim() == brdfit::choose::model_name(k, d))
         })
         .collect()
 }
@@ -102,7 +120,7 @@ fn default_pipeline_reaches_the_best_of_64_random_starts_on_every_real_file() {
         let step = if full || n <= 3 { 1 } else { 6 };
         for c in (0..n).step_by(step) {
             let one = ds.select(&ChannelSelect::Index(c)).unwrap();
-            for (kind, dist) in fit::all_models() {
+            for (kind, dist) in models() {
                 jobs.push((name.clone(), one.clone(), kind, dist));
             }
         }
@@ -115,7 +133,7 @@ fn default_pipeline_reaches_the_best_of_64_random_starts_on_every_real_file() {
     // The table: files × models, worst ratio of pipeline cost to the reference.
     let mut files: Vec<&str> = rows.iter().map(|r| r.file.as_str()).collect();
     files.dedup();
-    let models: Vec<String> = fit::all_models().iter().map(|(k, d)| k.label(*d)).collect();
+    let models: Vec<String> = models().iter().map(|(k, d)| k.label(*d)).collect();
     println!(
         "\nworst cost ratio, default pipeline / best of 64 random local starts (channels: {}):",
         if full {

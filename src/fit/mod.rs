@@ -536,6 +536,13 @@ fn fit_group(
         )
         .with(Setting::Start));
     }
+    // The same f_r in canonical order (ggx-smith-2: alpha1 ≤ alpha2), before any statistic
+    // (the normal equations cached at the solution are in the old order: made again).
+    let x = solve::canonical(&full, &found.sol.x);
+    if x != found.sol.x {
+        found.sol.x = x;
+        found.sol.normal = None;
+    }
     // Statistics in natural parameters, on the declared (not the robust) loss.
     let cost = if found.robust == Robust::None {
         found.sol.cost
@@ -546,6 +553,17 @@ fn fit_group(
         .map(|k| full.transforms[k].apply(found.sol.x[k]).0)
         .collect();
     let mut warnings = Vec::new();
+    if full
+        .models(&found.sol.x)
+        .iter()
+        .any(|m| m.canonical() != *m)
+    {
+        warnings.push(
+            "the lobes end out of order (alpha1 > alpha2) and a held parameter keeps them from \
+             being swapped: hold the other lobe's parameters instead (--fix)"
+                .to_string(),
+        );
+    }
     if !found.sol.converged {
         warnings.push(format!(
             "the solver stopped before converging: {}",

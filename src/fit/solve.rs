@@ -65,10 +65,27 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
             .collect();
         iterations += polished.iter().map(|s| s.iterations).sum::<usize>();
         evaluations += polished.iter().map(|s| s.evaluations).sum::<usize>();
-        polished
+        let mut best = polished
             .into_iter()
             .min_by(|a, b| a.cost.total_cmp(&b.cost))
-            .expect("at least one candidate")
+            .expect("at least one candidate");
+        // A local fit never ends above its start: the subsample's basin can polish to a cost
+        // on every row above the start's own, and then the start is polished instead (the
+        // pixel-loss refit of `choose` relies on this to end no worse than the global fit).
+        if opts.local_only {
+            for x0 in &candidates {
+                let c0 = lsq::cost(full, x0, robust).unwrap_or(f64::INFINITY);
+                if c0 < best.cost {
+                    let s = lsq::solve(full, x0, opts.method, robust, &opts.limits);
+                    iterations += s.iterations;
+                    evaluations += s.evaluations;
+                    if s.cost < best.cost {
+                        best = s;
+                    }
+                }
+            }
+        }
+        best
     } else {
         sols.swap_remove(0)
     };
@@ -149,4 +166,39 @@ pub fn random_start(p: &BrdfProblem, specs: &[&ParamSpec], rng: &mut impl rand::
         .enumerate()
         .map(|(k, s)| p.transforms[k].invert(s.random_value(rng)))
         .collect()
+}
+
+/// The solver variables of the same f_r with each channel's parameters in canonical order
+/// ([`Model::canonical`]: ggx-smith-2's lobes with alpha1 ≤ alpha2). A parameter that moves
+/// takes the value of another free variable of the same transform (a lobe swap exchanges
+/// variables and changes no residual). Where that cannot be done (a held parameter, or a
+/// variable shared by channels that would swap differently), `x` is returned unchanged.
+pub(super) fn canonical(p: &BrdfProblem, x: &[f64]) -> Vec<f64> {
+    let models = p.models(x);
+    let n = p.n_model_params();
+    let mut y = x.to_vec();
+    for (slots, m) in p.layout.iter().zip(&models) {
+        let c = m.canonical();
+        for j in (0..n).filter(|&j| c.p[j] != m.p[j]) {
+            let Slot::Free(k) = slots[j] else {
+                return x.to_vec();
+            };
+            let source = (0..n).find_map(|i| match slots[i] {
+                Slot::Free(ki) if m.p[i] == c.p[j] && p.transforms[ki] == p.transforms[k] => {
+                    Some(ki)
+                }
+                _ => None,
+            });
+            let Some(ki) = source else {
+                return x.to_vec();
+            };
+            y[k] = x[ki];
+        }
+    }
+    let same = p
+        .models(&y)
+        .iter()
+        .zip(&models)
+        .all(|(a, b)| *a == b.canonical());
+    if same { y } else { x.to_vec() }
 }

@@ -177,6 +177,7 @@ impl ModelKind {
         ModelKind::BlinnPhong,
         ModelKind::TorranceSparrow,
         ModelKind::GgxSmith,
+        ModelKind::GgxSmith2,
     ];
 
     /// Command-line name: `lambert`, `phong`, `blinn-phong`, `torrance-sparrow`, ….
@@ -256,14 +257,12 @@ impl ModelKind {
     }
 }
 
-/// Every (model, distribution) pair `--model all` compares, simplest first. Torrance–Sparrow
-/// with ABC is fitted with `--distribution abc` but not yet compared here (the corpus test's
-/// 64 random starts do not cover it yet).
+/// Every (model, distribution) pair `--model all`, `choose` and the report compare, simplest
+/// first (Torrance–Sparrow with each of its distributions, ABC included).
 pub fn catalogue() -> Vec<(ModelKind, Distribution)> {
     ModelKind::ALL
         .iter()
         .flat_map(|&k| k.distributions().iter().map(move |&d| (k, d)))
-        .filter(|&(_, d)| d != Distribution::Abc)
         .collect()
 }
 

@@ -20,3 +20,4 @@ pub fn write(dir: &Path, name: &str, body: &[u8]) -> PathBuf {
     std::fs::write(&p, body).unwrap();
     p
 }
+pub mod sphere;
