@@ -1190,24 +1190,7 @@ fn contact_sheet(
     use plotters::prelude::*;
     let (tile, gap, label_h) = (256u32, 14u32, 40u32);
     let cols = 4u32;
-    // The verdict's reason, wrapped to the sheet's width (about 7 px a character at 13 px),
-    // 17 px a line below the title; the tiles start below it.
-    let reason = verdict::wrap(
-        &case.reason,
-        (gap + cols * (tile + gap) - 2 * gap) as usize / 7,
-    );
-    let top = 46 + 17 * reason.len().max(1) as u32;
-    let n = imgs.renders.len() as u32;
-    let rows = n.div_ceil(cols);
-    let cell_h = label_h + 2 * tile + 8;
     let w = gap + cols * (tile + gap);
-    let h = top + rows * (cell_h + gap);
-    let mut buf = vec![255u8; (w * h * 3) as usize];
-    let lut = nv_flip::magma_lut().to_vec();
-    let put = |buf: &mut Vec<u8>, x: u32, y: u32, c: [u8; 3]| {
-        let o = ((y * w + x) * 3) as usize;
-        buf[o..o + 3].copy_from_slice(&c);
-    };
     let srgb: Vec<Vec<u8>> = imgs
         .renders
         .iter()
@@ -1215,6 +1198,36 @@ fn contact_sheet(
         .collect();
     let (iw, ih) = (imgs.renders[0].1.width, imgs.renders[0].1.height);
     let (cx, cy, side) = crate::render::visible_crop(&srgb, iw, ih, 8);
+    // The title (20 px, about 11 px a character) and the verdict's reason (13 px, about 7 px
+    // a character) wrapped to the sheet's width, 24 and 17 px a line; the tiles start below.
+    let zoom = if side < iw.min(ih) {
+        format!(", images zoomed ×{:.1}", iw.min(ih) as f64 / side as f64)
+    } else {
+        String::new()
+    };
+    let title = verdict::wrap(
+        &format!(
+            "{} lit: {} ({} ≤ {}{zoom})",
+            case.case,
+            case.answer(),
+            th.metric,
+            th.value
+        ),
+        (w - 2 * gap) as usize / 11,
+    );
+    let reason = verdict::wrap(&case.reason, (w - 2 * gap) as usize / 7);
+    let reason_y = 38 + 24 * (title.len().max(1) as u32 - 1);
+    let top = reason_y + 8 + 17 * reason.len().max(1) as u32;
+    let n = imgs.renders.len() as u32;
+    let rows = n.div_ceil(cols);
+    let cell_h = label_h + 2 * tile + 8;
+    let h = top + rows * (cell_h + gap);
+    let mut buf = vec![255u8; (w * h * 3) as usize];
+    let lut = nv_flip::magma_lut().to_vec();
+    let put = |buf: &mut Vec<u8>, x: u32, y: u32, c: [u8; 3]| {
+        let o = ((y * w + x) * 3) as usize;
+        buf[o..o + 3].copy_from_slice(&c);
+    };
     let origin = |k: u32| {
         (
             gap + (k % cols) * (tile + gap),
@@ -1267,23 +1280,11 @@ fn contact_sheet(
                 ("sans-serif", size).into_font(),
             ))
         };
-        let answer = case.answer();
-        let zoom = if side < iw.min(ih) {
-            format!(", images zoomed ×{:.1}", iw.min(ih) as f64 / side as f64)
-        } else {
-            String::new()
-        };
-        e(text(
-            format!(
-                "{} lit: {answer} ({} ≤ {}{zoom})",
-                case.case, th.metric, th.value
-            ),
-            gap,
-            12,
-            20.0,
-        ))?;
+        for (i, line) in title.iter().enumerate() {
+            e(text(line.clone(), gap, 12 + 24 * i as u32, 20.0))?;
+        }
         for (i, line) in reason.iter().enumerate() {
-            e(text(line.clone(), gap, 38 + 17 * i as u32, 13.0))?;
+            e(text(line.clone(), gap, reason_y + 17 * i as u32, 13.0))?;
         }
         for k in 0..n {
             let (x0, y0) = origin(k);
