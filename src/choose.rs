@@ -31,7 +31,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 mod verdict;
-pub use verdict::{FoldKind, ReferenceError, Verdict};
+pub use verdict::{Fold, FoldKind, ReferenceError, Verdict, cross_validate, folds};
 
 /// An error key of [`ModelRow`] that a threshold can test.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -708,14 +708,17 @@ pub fn choose(
     let reference = Reference::new(ds, &global);
     let r = &reference;
     progress(&format!(
-        "resampled {} samples onto a {}×{}×{} table in {:.2} s; {:.1} % of cells filled from {}",
+        "resampled {} samples onto a {}×{}×{} table in {:.2} s; {:.1} % of cells filled from {}; \
+         {} cross-validation folds refitted and rebuilt in {:.2} s",
         ds.len(),
         r.table.dims.0[0],
         r.table.dims.0[1],
         r.table.dims.0[2],
         r.seconds,
         100.0 * r.table.fill_share(),
-        r.fill_name
+        r.fill_name,
+        r.folds.len(),
+        r.fold_seconds
     ));
     let mut results = Vec::new();
     let mut images = Vec::new();
@@ -755,37 +758,45 @@ struct Reference {
     measured: bool,
     /// Resampling time (s).
     seconds: f64,
+    /// Time to refit and rebuild the cross-validation folds (s).
+    fold_seconds: f64,
 }
 
 impl Reference {
-    /// Resample `ds` with the lowest-BIC usable global fit as the fill.
+    /// Resample `ds` on the lowest-BIC usable model among the global fits and a
+    /// Torrance–Sparrow fit with Löw et al.'s ABC distribution (the better the base model,
+    /// the flatter the ratio the table interpolates).
     fn new(ds: &Dataset, global: &[FitResult]) -> Reference {
-        let best = (0..global.len())
-            .filter(|&i| global[i].usable())
-            .min_by(|&a, &b| global[a].bic.total_cmp(&global[b].bic))
+        let abc = (ModelKind::TorranceSparrow, Distribution::Abc);
+        let extra = if global.iter().any(|g| (g.model, g.dist) == abc) {
+            None
+        } else {
+            fit_one(ds, abc.0, abc.1, 0).ok()
+        };
+        let bases: Vec<&FitResult> = global.iter().chain(extra.as_ref()).collect();
+        let best = (0..bases.len())
+            .filter(|&i| bases[i].usable())
+            .min_by(|&a, &b| bases[a].bic.total_cmp(&bases[b].bic))
             .unwrap_or(0);
-        let fill = global[best].model_for(0);
+        let base = bases[best];
+        let fill = base.model_for(0);
         let t = Instant::now();
         let dims = Dims::for_samples(ds.len());
         let table = Arc::new(crate::render::reconstruct::reconstruct(ds, dims, fill));
         let seconds = t.elapsed().as_secs_f64();
-        let folds = verdict::fold_sets(ds)
-            .into_iter()
-            .map(|(name, kind, sub)| verdict::Fold {
-                name,
-                kind,
-                table: Arc::new(crate::render::reconstruct::reconstruct(&sub, dims, fill)),
-            })
-            .collect();
+        let t = Instant::now();
+        let folds = verdict::folds(ds, dims, (base.model, base.dist), fill);
+        let fold_seconds = t.elapsed().as_secs_f64();
         let measured = table.fill_share() <= MAX_FILL_SHARE;
         Reference {
             table,
             folds,
             spacing: verdict::spacings(ds),
             fill,
-            fill_name: model_name(global[best].model, global[best].dist),
+            fill_name: model_name(base.model, base.dist),
             measured,
             seconds,
+            fold_seconds,
         }
     }
 
@@ -862,29 +873,13 @@ fn run_case(
         reference_seconds
     ));
     // The reference's own error: each cross-validation fold rendered against it.
-    let mut reference_error_map = vec![0f32; ref_img.pixels.len()];
-    let (mut err_p99, mut err_mean, mut worst) = (0.0f64, 0.0f64, None);
-    for fold in &reference.folds {
-        let (img, _) = render_with(
-            &case.scene,
-            material(reference.fill, Some(fold.table.clone())),
-        );
-        let (f, map, _, _) = errors(&ref_img, &img, &mask);
-        let mean = compare::summarise(&map, &[], FLIP_LEVEL).mean;
-        if f.p99 > err_p99 || worst.is_none() {
-            worst = Some(fold.kind);
-        }
-        err_p99 = err_p99.max(f.p99);
-        err_mean = err_mean.max(mean);
-        for (a, b) in reference_error_map.iter_mut().zip(&map) {
-            *a = a.max(*b);
-        }
-    }
-    let reference_error = (!reference.folds.is_empty()).then(|| ReferenceError {
-        flip_p99: err_p99,
-        flip_mean: err_mean,
-        method: verdict::method(&reference.folds),
-    });
+    let (reference_error, reference_error_map, worst) =
+        verdict::cross_validate(&case.scene, &ref_img, &reference.folds, &mask, &|t| {
+            material(reference.fill, Some(t))
+        });
+    let (err_p99, err_mean) = reference_error
+        .as_ref()
+        .map_or((0.0, 0.0), |e| (e.flip_p99, e.flip_mean));
     progress(&format!(
         "{}: the reference's own error (cross-validation, {} folds): ꟻLIP p99 {err_p99:.3}, mean {err_mean:.4}",
         case.name,
@@ -1237,19 +1232,9 @@ fn contact_sheet(
     th: &ThresholdJson,
 ) -> anyhow::Result<Vec<u8>> {
     use plotters::prelude::*;
-    let (tile, gap, label_h, top) = (256u32, 14u32, 40u32, 64u32);
+    let (tile, gap, label_h) = (256u32, 14u32, 40u32);
     let cols = 4u32;
-    let n = imgs.renders.len() as u32;
-    let rows = n.div_ceil(cols);
-    let cell_h = label_h + 2 * tile + 8;
     let w = gap + cols * (tile + gap);
-    let h = top + rows * (cell_h + gap);
-    let mut buf = vec![255u8; (w * h * 3) as usize];
-    let lut = nv_flip::magma_lut().to_vec();
-    let put = |buf: &mut Vec<u8>, x: u32, y: u32, c: [u8; 3]| {
-        let o = ((y * w + x) * 3) as usize;
-        buf[o..o + 3].copy_from_slice(&c);
-    };
     let srgb: Vec<Vec<u8>> = imgs
         .renders
         .iter()
@@ -1257,6 +1242,36 @@ fn contact_sheet(
         .collect();
     let (iw, ih) = (imgs.renders[0].1.width, imgs.renders[0].1.height);
     let (cx, cy, side) = crate::render::visible_crop(&srgb, iw, ih, 8);
+    // The title (20 px, about 11 px a character) and the verdict's reason (13 px, about 7 px
+    // a character) wrapped to the sheet's width, 24 and 17 px a line; the tiles start below.
+    let zoom = if side < iw.min(ih) {
+        format!(", images zoomed ×{:.1}", iw.min(ih) as f64 / side as f64)
+    } else {
+        String::new()
+    };
+    let title = verdict::wrap(
+        &format!(
+            "{} lit: {} ({} ≤ {}{zoom})",
+            case.case,
+            case.answer(),
+            th.metric,
+            th.value
+        ),
+        (w - 2 * gap) as usize / 11,
+    );
+    let reason = verdict::wrap(&case.reason, (w - 2 * gap) as usize / 7);
+    let reason_y = 38 + 24 * (title.len().max(1) as u32 - 1);
+    let top = reason_y + 8 + 17 * reason.len().max(1) as u32;
+    let n = imgs.renders.len() as u32;
+    let rows = n.div_ceil(cols);
+    let cell_h = label_h + 2 * tile + 8;
+    let h = top + rows * (cell_h + gap);
+    let mut buf = vec![255u8; (w * h * 3) as usize];
+    let lut = nv_flip::magma_lut().to_vec();
+    let put = |buf: &mut Vec<u8>, x: u32, y: u32, c: [u8; 3]| {
+        let o = ((y * w + x) * 3) as usize;
+        buf[o..o + 3].copy_from_slice(&c);
+    };
     let origin = |k: u32| {
         (
             gap + (k % cols) * (tile + gap),
@@ -1309,29 +1324,12 @@ fn contact_sheet(
                 ("sans-serif", size).into_font(),
             ))
         };
-        let answer = case.answer();
-        let zoom = if side < iw.min(ih) {
-            format!(", images zoomed ×{:.1}", iw.min(ih) as f64 / side as f64)
-        } else {
-            String::new()
-        };
-        e(text(
-            format!(
-                "{} lit: {answer} ({} ≤ {}{zoom})",
-                case.case, th.metric, th.value
-            ),
-            gap,
-            12,
-            20.0,
-        ))?;
-        // The verdict's reason, on one line (cut where the sheet ends).
-        let width = (w as usize - 2 * gap as usize) / 7;
-        let reason: String = if case.reason.chars().count() > width {
-            case.reason.chars().take(width - 1).chain(['…']).collect()
-        } else {
-            case.reason.clone()
-        };
-        e(text(reason, gap, 38, 13.0))?;
+        for (i, line) in title.iter().enumerate() {
+            e(text(line.clone(), gap, 12 + 24 * i as u32, 20.0))?;
+        }
+        for (i, line) in reason.iter().enumerate() {
+            e(text(line.clone(), gap, reason_y + 17 * i as u32, 13.0))?;
+        }
         for k in 0..n {
             let (x0, y0) = origin(k);
             if k == 0 {

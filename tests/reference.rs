@@ -13,7 +13,7 @@ mod common;
 use brdfit::choose::{Case, ChooseOptions, Verdict, choose};
 use brdfit::data::nbrdf::Nbrdf;
 use brdfit::data::{ChannelSelect, Dataset};
-use brdfit::model::{Geometry, Model, ModelKind};
+use brdfit::model::{Distribution, Geometry, Model, ModelKind};
 use brdfit::render::measured::{Dims, Tabulated};
 use brdfit::render::{Image, Scene};
 use brdfit::simulate::{Grid, simulate_nbrdf};
@@ -241,6 +241,118 @@ fn measure_sparse_references() {
                     .clone()
                     .unwrap_or(format!("closest {}", case.closest))
             );
+        }
+    }
+}
+
+/// A quick measurement of the reference alone (no candidate fits): for each material of
+/// `BRDFIT_MATERIALS` (comma-separated; default the five), the goniometer samples
+/// reconstructed on the best base model of `fill_candidates`, rendered at `BRDFIT_RES`²
+/// (default 256) against the exact render, and the cross-validation's stated error; the
+/// ꟻLIP maps are written to `BRDFIT_OUT` (a folder) when it is set.
+#[test]
+#[ignore]
+fn measure_reference_quick() {
+    use std::time::Instant;
+    let res: u32 = std::env::var("BRDFIT_RES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(256);
+    let names = std::env::var("BRDFIT_MATERIALS")
+        .unwrap_or("blue-acrylic,steel,white-paint,silver-paint,alumina-oxide".into());
+    let out = std::env::var("BRDFIT_OUT")
+        .ok()
+        .map(std::path::PathBuf::from);
+    for name in names.split(',') {
+        let net = net(name);
+        let ds = sampled(&net, Grid::Goniometer);
+        let t = Instant::now();
+        let base = std::env::var("BRDFIT_BASE").unwrap_or("best".into());
+        let mut fits = Vec::new();
+        for (tag, kind, dist) in [
+            ("ts-d3", ModelKind::TorranceSparrow, Distribution::D3),
+            ("ggx", ModelKind::GgxSmith, Distribution::D3),
+            ("abc", ModelKind::TorranceSparrow, Distribution::Abc),
+            ("ggx2", ModelKind::GgxSmith2, Distribution::D3),
+        ] {
+            if base != "all" && (base != "best" || tag == "ggx2") && base != tag {
+                continue;
+            }
+            let mut o = brdfit::FitOptions::new(kind);
+            o.dist = dist;
+            o.profile = false;
+            let t = Instant::now();
+            let r = brdfit::fit(&ds, &o).unwrap().remove(0);
+            println!(
+                "  {name} {tag}: bic {:.0} usable {} ({:.2} s)",
+                r.bic,
+                r.usable(),
+                t.elapsed().as_secs_f64()
+            );
+            fits.push(r);
+        }
+        let best = fits
+            .iter()
+            .filter(|r| r.usable())
+            .min_by(|a, b| a.bic.total_cmp(&b.bic))
+            .unwrap_or(&fits[0]);
+        let (fill, kind) = (best.model_for(0), (best.model, best.dist));
+        let t_fit = t.elapsed().as_secs_f64();
+        let dims = std::env::var("BRDFIT_DIMS")
+            .ok()
+            .map(|s| {
+                let v: Vec<usize> = s.split(',').map(|x| x.parse().unwrap()).collect();
+                Dims([v[0], v[1], v[2]])
+            })
+            .unwrap_or(Dims::for_samples(ds.len()));
+        let t = Instant::now();
+        let table = Arc::new(brdfit::render::reconstruct::reconstruct(&ds, dims, fill));
+        let t_table = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let folds = brdfit::choose::folds(&ds, dims, kind, fill);
+        let t_folds = t.elapsed().as_secs_f64();
+        for (case, angle) in [("front", 15.0), ("edge", 95.0)] {
+            let s = scene(angle, res);
+            let truth = exact(&s, &net);
+            let r = render(&s, (*table).clone());
+            let m = mask(&s);
+            let p99 = flip_p99(&truth, &r, &m);
+            let t = Instant::now();
+            let (err, _, worst) = brdfit::choose::cross_validate(&s, &r, &folds, &m, &|t| {
+                let mut mat = s.materials[0].clone();
+                mat.model = fill;
+                mat.measured = Some(t);
+                mat
+            });
+            let t_cv = t.elapsed().as_secs_f64();
+            println!(
+                "{name} {case}: true {p99:.3} stated {:.3} ({worst:?}); base fit {t_fit:.2} s, table {t_table:.2} s, folds {t_folds:.2} s, cv renders {t_cv:.2} s",
+                err.map_or(f64::NAN, |e| e.flip_p99)
+            );
+            if let Some(dir) = &out {
+                std::fs::create_dir_all(dir).unwrap();
+                let map = brdfit::render::compare::flip(
+                    &brdfit::render::to_srgb8(&truth),
+                    &brdfit::render::to_srgb8(&r),
+                    res,
+                    res,
+                );
+                let lut = nv_flip::magma_lut().to_vec();
+                let rgb: Vec<u8> = map
+                    .iter()
+                    .flat_map(|&e| {
+                        let i = 3 * ((e / 0.2).clamp(0.0, 1.0) * 255.0) as usize;
+                        [lut[i], lut[i + 1], lut[i + 2]]
+                    })
+                    .collect();
+                let png = brdfit::plot::encode_png(res, res, &rgb).unwrap();
+                std::fs::write(dir.join(format!("{name}-{case}-flip.png")), png).unwrap();
+                for (tag, img) in [("truth", &truth), ("ref", &r)] {
+                    let png =
+                        brdfit::plot::encode_png(res, res, &brdfit::render::to_srgb8(img)).unwrap();
+                    std::fs::write(dir.join(format!("{name}-{case}-{tag}.png")), png).unwrap();
+                }
+            }
         }
     }
 }

@@ -11,6 +11,7 @@
 
 use crate::data::Dataset;
 use crate::render::measured::Tabulated;
+use crate::render::{Image, Material, Scene};
 use std::sync::Arc;
 
 /// The reference's own error, as `choose.json` writes it per case.
@@ -167,6 +168,35 @@ pub fn fold_sets(ds: &Dataset) -> Vec<(String, FoldKind, Dataset)> {
     out
 }
 
+/// The cross-validation folds of `ds` ([`fold_sets`]), in parallel: each subset's own fit of
+/// the base model (`kind`, `dist`; the full data's `fill` where that fit fails or is not
+/// usable), and the subset rebuilt on it ([`crate::render::reconstruct::reconstruct`]) on a
+/// table of `dims`. The base is refitted so that a fold knows nothing of the samples it
+/// leaves out: the full data's fit would carry them into the fold's reconstruction, and the
+/// fold would differ from the reference less than the reference from the truth.
+pub fn folds(
+    ds: &Dataset,
+    dims: crate::render::measured::Dims,
+    (kind, dist): (crate::model::ModelKind, crate::model::Distribution),
+    fill: crate::model::Model,
+) -> Vec<Fold> {
+    use rayon::prelude::*;
+    fold_sets(ds)
+        .into_par_iter()
+        .map(|(name, kind_of_fold, sub)| {
+            let base = super::fit_one(&sub, kind, dist, 0)
+                .ok()
+                .filter(|r| r.usable())
+                .map_or(fill, |r| r.model_for(0));
+            Fold {
+                name,
+                kind: kind_of_fold,
+                table: Arc::new(crate::render::reconstruct::reconstruct(&sub, dims, base)),
+            }
+        })
+        .collect()
+}
+
 /// The spacing of the data's slices of θi and of azimuth, and the largest θi (degrees), when
 /// they come in slices.
 pub fn spacings(ds: &Dataset) -> (Option<f64>, Option<f64>, Option<f64>) {
@@ -180,6 +210,40 @@ pub fn spacings(ds: &Dataset) -> (Option<f64>, Option<f64>, Option<f64>) {
         slices((0..ds.len()).map(|k| azimuth(ds, k))).map(step),
         slices(ds.theta_i.iter().copied()).and_then(|v| v.last().map(|&x| x as f64 / 100.0)),
     )
+}
+
+/// The reference's own error in `scene`: each fold's table rendered (as `material` makes it)
+/// and compared with the `reference` image by LDR-ꟻLIP over `mask`; the largest p99 and mean
+/// over the folds, the per-pixel largest error, and the kind of the worst fold. `None` with
+/// no folds.
+pub fn cross_validate(
+    scene: &Scene,
+    reference: &Image,
+    folds: &[Fold],
+    mask: &[bool],
+    material: &dyn Fn(Arc<Tabulated>) -> Material,
+) -> (Option<ReferenceError>, Vec<f32>, Option<FoldKind>) {
+    let mut map_max = vec![0f32; reference.pixels.len()];
+    let (mut p99, mut mean, mut worst) = (0.0f64, 0.0f64, None);
+    for fold in folds {
+        let (img, _) = super::render_with(scene, material(fold.table.clone()));
+        let (f, map, _, _) = super::errors(reference, &img, mask);
+        let m = crate::render::compare::summarise(&map, &[], super::FLIP_LEVEL).mean;
+        if f.p99 > p99 || worst.is_none() {
+            worst = Some(fold.kind);
+        }
+        p99 = p99.max(f.p99);
+        mean = mean.max(m);
+        for (a, b) in map_max.iter_mut().zip(&map) {
+            *a = a.max(*b);
+        }
+    }
+    let err = (!folds.is_empty()).then(|| ReferenceError {
+        flip_p99: p99,
+        flip_mean: mean,
+        method: method(folds),
+    });
+    (err, map_max, worst)
 }
 
 /// The method's description for `choose.json`.
@@ -284,6 +348,27 @@ pub fn verdict(
     }
 }
 
+/// `text` in lines of at most `width` characters, broken at spaces (a word longer than a
+/// line stands alone on its line).
+pub(super) fn wrap(text: &str, width: usize) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    let mut line = String::new();
+    for word in text.split_whitespace() {
+        let n = line.chars().count();
+        if n > 0 && n + 1 + word.chars().count() > width {
+            lines.push(std::mem::take(&mut line));
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(word);
+    }
+    if !line.is_empty() {
+        lines.push(line);
+    }
+    lines
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -321,6 +406,18 @@ mod tests {
         assert_eq!(f[3].1, FoldKind::Azimuth);
         assert_eq!(f[3].2.len() + f[4].2.len(), 32);
         assert_eq!(spacings(&grid()), (Some(10.0), Some(315.0), Some(40.0)));
+    }
+
+    /// A reason wraps at spaces into lines no longer than the width (counted by hand); a
+    /// longer word stands alone.
+    #[test]
+    fn reason_wraps() {
+        assert_eq!(
+            wrap("the reference is not determined", 12),
+            ["the", "reference is", "not", "determined"]
+        );
+        assert_eq!(wrap("a verylongword b", 4), ["a", "verylongword", "b"]);
+        assert!(wrap("", 10).is_empty());
     }
 
     /// The three verdicts and their conditions.
