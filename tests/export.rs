@@ -58,6 +58,20 @@ fn text_exports_carry_the_mapping() {
     let p = export::pbrt(&Colour::grey(&mgo));
     assert!(p.contains("coateddiffuse") && p.contains("\"float eta\" [ 1.8 ]"));
     assert!(p.contains("Smith masking"));
+    // Each export names the lobe its GGX replaces (an ABC fit used to be described as D3).
+    assert!(p.contains("D3 with peak 1"), "{p}");
+    let abc = Model::new(
+        ModelKind::TorranceSparrow,
+        Distribution::Abc,
+        &[1.5, 400.0, 0.8, 0.3, 0.2],
+    )
+    .unwrap();
+    let p = export::pbrt(&Colour::grey(&abc));
+    assert!(p.contains("ABC lobe") && p.contains("c = 0.8") && p.contains("heavier tail"));
+    assert!(!p.contains("D3"), "{p}");
+    let ph = Model::new(ModelKind::Phong, Distribution::D3, &[20.0, 0.5, 0.1]).unwrap();
+    let p = export::pbrt(&Colour::grey(&ph));
+    assert!(p.contains("cosine power") && !p.contains("D3"), "{p}");
     let b = export::brdf_explorer(&Colour::grey(&mgo)).unwrap();
     assert!(
         b.starts_with("analytic")

@@ -539,13 +539,19 @@ pub enum MaterialKind {
     },
 }
 
-/// What differs between Blinn's models and the GGX materials of Mitsuba 3 and pbrt-v4.
-pub(crate) const DIFFERS_BLINN: &str = "What differs from brdfit's model: Mitsuba and pbrt use Smith masking instead of Blinn's V-groove G, a normalised GGX instead of Blinn's D3 with peak 1 (D3 = pi c3^2 D_GGX), and energy from the Fresnel term instead of the free scale ps; pd maps to the diffuse reflectance directly.";
+/// What differs between a Blinn-style model (its lobe described by `lobe`, with how α was
+/// matched to it) and the GGX materials of Mitsuba 3 and pbrt-v4.
+pub(crate) fn differs_blinn(lobe: &str) -> String {
+    format!(
+        "What differs from brdfit's model: Mitsuba and pbrt use Smith masking instead of Blinn's V-groove G, a normalised GGX instead of {lobe}, and energy from the Fresnel term instead of the free scale ps; pd maps to the diffuse reflectance directly."
+    )
+}
 
 /// The nearest material for a Blinn model with GGX roughness `alpha` (None: no lobe), Fresnel
 /// index `n` (None: no Fresnel term; 1.5 is used) and diffuse albedo `pd`: a metal-like fit
-/// (F0 > 0.5) is exported as aluminium, any other as a plastic.
-pub(crate) fn blinn_material(alpha: Option<f64>, n: Option<f64>, pd: f64) -> Material {
+/// (F0 > 0.5) is exported as aluminium, any other as a plastic. `lobe` says what the GGX
+/// replaces ([`differs_blinn`]).
+pub(crate) fn blinn_material(alpha: Option<f64>, n: Option<f64>, pd: f64, lobe: &str) -> Material {
     let kind = match (alpha, n) {
         (None, _) => MaterialKind::Diffuse { reflectance: pd },
         (Some(alpha), Some(n)) if f0_from_n(n) > 0.5 => MaterialKind::Aluminium { alpha },
@@ -558,7 +564,7 @@ pub(crate) fn blinn_material(alpha: Option<f64>, n: Option<f64>, pd: f64) -> Mat
     Material {
         kind,
         exact: false,
-        differs: DIFFERS_BLINN.into(),
+        differs: differs_blinn(lobe),
     }
 }
 

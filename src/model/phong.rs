@@ -28,7 +28,12 @@ pub(super) fn alpha_of_power(c: f64) -> f64 {
 
 /// A GGX plastic with the Beckmann-matched roughness of c1 (no Fresnel term: index 1.5).
 pub(super) fn material(m: &Model) -> Material {
-    super::blinn_material(Some(alpha_of_power(m.p[0])), None, m.p[2])
+    super::blinn_material(
+        Some(alpha_of_power(m.p[0])),
+        None,
+        m.p[2],
+        "Phong's cosine power (alpha = sqrt(2/(c1 + 2)), Walter et al. 2007)",
+    )
 }
 
 /// The highlight x^c1 with x = R·E or N·H.

@@ -119,7 +119,21 @@ pub fn abc_half_width(b: f64, c: f64) -> f64 {
 
 /// A GGX plastic of index n, or aluminium when F0 > 0.5.
 pub(super) fn material(m: &Model) -> Material {
-    super::blinn_material(Some(alpha(m)), Some(m.p[0]), m.pd())
+    let lobe = match m.dist {
+        Distribution::D1 => {
+            "Blinn's D1 = cos^c1 (alpha = sqrt(2/(c1 + 2)), Walter et al. 2007)".to_string()
+        }
+        Distribution::D2 => {
+            "Blinn's Gaussian D2 = exp(-(c2 theta_h)^2) (alpha = sqrt(2)/c2)".to_string()
+        }
+        Distribution::D3 => "Blinn's D3 with peak 1 (D3 = pi c3^2 D_GGX)".to_string(),
+        Distribution::Abc => format!(
+            "the ABC lobe (1 + b (1 - cos theta_h))^(-c) of Low et al. 2012 (alpha: the GGX with the same half-width; c = {} against GGX's 2, so the {} tail is lost)",
+            super::short(m.p[2]),
+            if m.p[2] < 2.0 { "heavier" } else { "lighter" }
+        ),
+    };
+    super::blinn_material(Some(alpha(m)), Some(m.p[0]), m.pd(), &lobe)
 }
 
 /// D G F with the distribution's D, Blinn's G and the exact Fresnel F.
