@@ -934,7 +934,15 @@ fn range_of(vals: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     if log {
         (lo / 1.5, hi * 1.5)
     } else {
-        let pad = 0.05 * (hi - lo).max(1e-12 * hi.abs().max(1.0));
+        // A curve flat to within 2 % of its size (a Lambertian albedo with quadrature noise
+        // of 1e-6) is drawn flat: the span is widened to 2 % around its middle, so the ticks
+        // do not resolve the noise.
+        let least = 0.02 * hi.abs().max(lo.abs());
+        if hi - lo < least {
+            let mid = 0.5 * (lo + hi);
+            (lo, hi) = (mid - 0.5 * least, mid + 0.5 * least);
+        }
+        let pad = 0.05 * (hi - lo).max(1e-12);
         (lo - pad, hi + pad)
     }
 }
@@ -1382,6 +1390,19 @@ pub fn lobe_chart(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_flat_curve_is_not_magnified() {
+        // Albedo 0.5 with 1e-6 of quadrature noise: the axis spans at least 2 % of 0.5.
+        let (lo, hi) = range_of([0.5, 0.5 + 1e-6, 0.5 - 1e-6].into_iter(), false);
+        assert!(hi - lo >= 0.01 && lo < 0.5 && hi > 0.5, "{lo} {hi}");
+        // A curve that varies keeps its own span plus 5 % either side.
+        let (lo, hi) = range_of([0.2, 0.6].into_iter(), false);
+        assert!(
+            (lo - 0.18).abs() < 1e-12 && (hi - 0.62).abs() < 1e-12,
+            "{lo} {hi}"
+        );
+    }
 
     #[test]
     fn lambert_albedo_is_pd() {

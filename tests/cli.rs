@@ -375,6 +375,41 @@ fn eval_simulate_convert_end_to_end() {
         rows[1][4]
     );
 
+    // An f_r that overflows is refused and nothing is written (it wrote "inf"); a parameter
+    // given twice is refused (the last one won silently).
+    let bad = d.join("overflow.csv");
+    // At the 85° mirror f_r = ps F/(π cos² 85°) ≈ 25 ps: infinite for ps = 1.7e308.
+    let grazing = write(
+        d,
+        "grazing.csv",
+        b"theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg\n85,0,85,180\n",
+    );
+    for (set, fragment) in [
+        (
+            "n=1.8,c3=0.35,ps=1.7e308,pd=0.3",
+            "gives f_r = inf at direction 1",
+        ),
+        (
+            "n=1.8,c3=0.35,ps=0.5,pd=0.3,pd=0.4",
+            "gives pd twice (pd=0.3 and pd=0.4)",
+        ),
+    ] {
+        expect_error(
+            &[
+                "eval",
+                "--model",
+                "torrance-sparrow",
+                "--set",
+                set,
+                grazing.to_str().unwrap(),
+                "-o",
+                bad.to_str().unwrap(),
+            ],
+            &[fragment, "fix:"],
+        );
+        assert!(!bad.exists(), "{set}: wrote {}", bad.display());
+    }
+
     // simulate is deterministic for a seed and differs between seeds.
     let s = |seed: &str, name: &str| {
         let p = d.join(name);
@@ -775,6 +810,26 @@ material = "white"
         ],
         &["no line given", "--row"],
     );
+    // Cd = 0 (the shading would divide by it) and a zero light are refused with the fix.
+    let exr = dir.path().join("s.exr");
+    for (light, cd, fragment) in [
+        ("0.45,0.2,1", "0", "Cd = 0 must be a finite number > 0"),
+        ("0,0,0", "1", "0,0,0 is not a direction"),
+    ] {
+        let args = [
+            "inverse",
+            exr.to_str().unwrap(),
+            "--row",
+            "60",
+            "--light",
+            light,
+            "--cd",
+            cd,
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        expect_error(&args, &[fragment, "fix:"]);
+    }
 }
 
 /// `fit --repeat N` fits N times in one process and reports the median time; the fit itself

@@ -1,6 +1,6 @@
 //! Arguments shared by several commands: loading, models, fitting.
 
-use anyhow::{Result, anyhow};
+use anyhow::{Result, anyhow, bail};
 use brdfit::data::{self, ChannelSelect, Dataset, Format, LoadOptions, NegativePolicy};
 use brdfit::model::{Distribution, Model, ModelKind};
 use clap::Args;
@@ -50,7 +50,7 @@ pub(crate) struct FitArgs {
     #[arg(long, default_value = "torrance-sparrow", value_parser = model_or_all())]
     pub(crate) model: String,
     /// Facet distribution of models that take one (torrance-sparrow): d1 (cosine power), d2
-    /// (Gaussian), d3 (Trowbridge–Reitz).
+    /// (Gaussian), d3 (Trowbridge–Reitz), abc (Löw et al. 2012).
     #[arg(long, value_enum, default_value = "d3")]
     pub(crate) distribution: Distribution,
     /// Local method: brdfit's lm (Levenberg–Marquardt), gn (Gauss–Newton with line search) or
@@ -151,7 +151,7 @@ pub(crate) struct ModelArgs {
     #[arg(long, value_enum)]
     pub(crate) model: ModelKind,
     /// Facet distribution of models that take one (torrance-sparrow): d1 (cosine power), d2
-    /// (Gaussian), d3 (Trowbridge–Reitz).
+    /// (Gaussian), d3 (Trowbridge–Reitz), abc (Löw et al. 2012).
     #[arg(long, value_enum, default_value = "d3")]
     pub(crate) distribution: Distribution,
     /// Parameter values NAME=VALUE (repeat or separate with commas), e.g. n=1.8,c3=0.35,ps=0.667,pd=0.333.
@@ -173,19 +173,25 @@ impl ModelArgs {
 }
 
 /// Parse `NAME=VALUE` items of a flag.
+/// A name given twice is refused (the last one used to win silently).
 pub(crate) fn parse_assignments(flag: &str, items: &[String]) -> Result<Vec<(String, f64)>> {
-    items
-        .iter()
-        .map(|kv| {
-            let (k, v) = kv.split_once('=').ok_or_else(|| {
-                anyhow!("{flag} '{kv}' is not NAME=VALUE\n  fix: write e.g. {flag} c3=0.35")
-            })?;
-            let v: f64 = v.trim().parse().map_err(|_| {
-                anyhow!("{flag} {kv}: '{v}' is not a number\n  fix: write e.g. {flag} c3=0.35")
-            })?;
-            Ok((k.trim().to_string(), v))
-        })
-        .collect()
+    let mut out: Vec<(String, f64)> = Vec::with_capacity(items.len());
+    for kv in items {
+        let (k, v) = kv.split_once('=').ok_or_else(|| {
+            anyhow!("{flag} '{kv}' is not NAME=VALUE\n  fix: write e.g. {flag} c3=0.35")
+        })?;
+        let v: f64 = v.trim().parse().map_err(|_| {
+            anyhow!("{flag} {kv}: '{v}' is not a number\n  fix: write e.g. {flag} c3=0.35")
+        })?;
+        let k = k.trim().to_string();
+        if let Some((_, first)) = out.iter().find(|(name, _)| *name == k) {
+            bail!(
+                "{flag} gives {k} twice ({k}={first} and {k}={v})\n  fix: give each parameter once"
+            );
+        }
+        out.push((k, v));
+    }
+    Ok(out)
 }
 
 impl LoadArgs {

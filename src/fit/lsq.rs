@@ -264,7 +264,8 @@ pub struct Solution {
     pub x: Vec<f64>,
     /// Cost Σ ρ(r) at `x` (½ Σ r² without a robust loss).
     pub cost: f64,
-    /// Iterations taken.
+    /// Iterations taken: steps tried (Levenberg–Marquardt's damping increases that need no
+    /// evaluation are not counted), so never more than the evaluations.
     pub iterations: usize,
     /// Cost or Jacobian evaluations.
     pub evaluations: usize,
@@ -485,6 +486,9 @@ pub fn levenberg_marquardt<P: Problem>(
     let mut mu = 1e-3;
     let mut nu = 2.0;
     let mut iter = 0;
+    // Steps tried (each costs one evaluation): what `iterations` reports. `iter` also counts
+    // the passes that only raise the damping, and bounds the loop.
+    let mut steps = 0;
     let mut termination = "iteration limit reached".to_string();
     let mut converged = false;
     while iter < limits.max_iter {
@@ -562,6 +566,7 @@ pub fn levenberg_marquardt<P: Problem>(
         }
         // One pass gives the cost and, if the step is accepted, the next normal equations.
         evals += 1;
+        steps += 1;
         let trial = normal_equations(p, &xn, robust);
         let cn = trial.as_ref().map_or(f64::INFINITY, |t| t.cost);
         let actual = ne.cost - cn;
@@ -590,7 +595,7 @@ pub fn levenberg_marquardt<P: Problem>(
     Solution {
         cost: ne.cost,
         x,
-        iterations: iter,
+        iterations: steps,
         evaluations: evals,
         termination,
         converged,
@@ -841,6 +846,8 @@ pub(crate) mod tests {
                 "{m:?}: {s:?}"
             );
             assert!(s.iterations > 0 && s.iterations <= 20 * Limits::default().max_iter);
+            // Iterations are steps tried, each evaluated once (LM counted damping-only passes).
+            assert!(s.iterations < s.evaluations, "{m:?}: {s:?}");
         }
     }
 
