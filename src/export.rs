@@ -58,6 +58,10 @@ fn mitsuba_reflectance(name: &str, v: [f64; 3], indent: &str) -> String {
     }
 }
 
+/// The 95th percentile of the refit's relative f_r error above which [`refit_as_ggx`]'s note
+/// ends in a warning (10 %).
+pub const REFIT_FAITHFUL_P95: f64 = 0.10;
+
 /// The material for a renderer whose models are Lambert and GGX–Smith (Mitsuba 3): lambert
 /// and ggx-smith as they are (exact); any other model refitted as brdfit's `ggx-smith`, which
 /// Mitsuba evaluates exactly: the lobe (α, n) fitted by brdfit's own fitter (log loss) to
@@ -97,18 +101,28 @@ pub fn refit_as_ggx(c: &Colour) -> Result<(Colour, Option<String>), String> {
     let mut errs: Vec<f64> = Vec::new();
     for k in 0..3 {
         let orig = c.channel_model(k);
+        // A channel without a diffuse part (pd 0, as where a spectrum's negative sRGB
+        // component was clamped) keeps none: a pd the log loss leaves above 0 was thousands
+        // of times the lobe's tail away from the highlight.
+        let mut hold = held.to_vec();
+        if orig.pd() == 0.0 {
+            hold.push(("pd".to_string(), 0.0));
+        }
         let g = if k > 0 && c.is_grey() {
             out.channel_model(0)
         } else {
-            run(&orig, &held)?
+            run(&orig, &hold)?
         };
         out.pd[k] = g.pd();
         out.ps[k] = g.p[2];
+        // Relative to f_r plus 0.1 % of the channel's scale (pd + ps)/π: a lobe's far tail,
+        // 10⁻⁹ of the peak where a channel has no diffuse part, is not counted.
+        let floor = 1e-3 * (orig.pd() + g.p[2]).abs() * std::f64::consts::FRAC_1_PI;
         for a in &dirs {
             let geo = Geometry::from_angles(a[0], a[1], a[2], a[3]);
             let (f0, f1) = (orig.brdf(&geo), g.brdf(&geo));
             if f0 > 0.0 {
-                errs.push((f1 - f0).abs() / f0);
+                errs.push((f1 - f0).abs() / (f0 + floor));
             }
         }
     }
@@ -119,7 +133,7 @@ pub fn refit_as_ggx(c: &Colour) -> Result<(Colour, Option<String>), String> {
             .unwrap_or(0.0)
     };
     let note = format!(
-        "refitted: Mitsuba has no {}; this is brdfit's ggx-smith (alpha {}, n {}) fitted to 20,000 samples of it over the hemisphere (theta <= 88 deg, log loss), which Mitsuba evaluates exactly. The refit's f_r differs from the fitted model's by a median {} %, 95th percentile {} %, largest {} % (relative).",
+        "refitted: Mitsuba has no {}; this is brdfit's ggx-smith (alpha {}, n {}) fitted to 20,000 samples of it over the hemisphere (theta <= 88 deg, log loss), which Mitsuba evaluates exactly. The refit's f_r differs from the fitted model's by a median {} %, 95th percentile {} %, largest {} % (relative to f_r + 0.1 % of (pd + ps)/pi).",
         c.model.kind.label(c.model.dist),
         short(alpha),
         short(n),
@@ -127,6 +141,11 @@ pub fn refit_as_ggx(c: &Colour) -> Result<(Colour, Option<String>), String> {
         crate::model::readable(100.0 * q(0.95)),
         crate::model::readable(100.0 * q(1.0))
     );
+    let note = if q(0.95) > REFIT_FAITHFUL_P95 {
+        note + " warning: the refit is more than 10 % off on over 5 % of the directions: Mitsuba's GGX-Smith does not take this model's shape; fix: render the fit in brdfit, or fit ggx-smith to the data itself (fit --model ggx-smith, Mitsuba then evaluates exactly what was fitted) and export that."
+    } else {
+        note
+    };
     Ok((out, Some(note)))
 }
 

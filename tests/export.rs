@@ -409,6 +409,60 @@ fn spectral_fits_export_as_colour() {
         "{:?}",
         red.pd
     );
+    // Light at 500–520 nm lies outside the sRGB gamut (its linear red is negative, CIE 1931):
+    // red is clamped to 0, and a note says so.
+    let green = file(&|l| {
+        if (500.0..=520.0).contains(&l) {
+            0.8
+        } else {
+            0.0
+        }
+    });
+    assert!(green.pd[0] == 0.0 && green.pd[1] > 0.0, "{:?}", green.pd);
+    assert!(
+        green
+            .notes
+            .iter()
+            .any(|n| n.contains("outside the sRGB gamut: pd") && n.contains("clamped to 0")),
+        "{:?}",
+        green.notes
+    );
+    assert!(
+        !flat.notes.iter().any(|n| n.contains("gamut")),
+        "{:?}",
+        flat.notes
+    );
+}
+
+/// The Mitsuba refit states its error and warns where it is not faithful (95th percentile
+/// above 10 %): Phong's lobe about the mirror direction R is not a half-vector lobe, while
+/// Blinn's D3 is GGX's shape. A channel without a diffuse part (pd 0) is measured on what it
+/// shows, not on a lobe tail 10⁻⁹ of its peak (that read 600 %).
+#[test]
+fn mitsuba_refit_warns_where_it_is_not_faithful() {
+    let p95 = |x: &str| -> f64 {
+        let t = x.split("95th percentile ").nth(1).unwrap();
+        t.split(' ').next().unwrap().parse().unwrap()
+    };
+    let phong = Model::new(ModelKind::Phong, Distribution::D3, &[20.0, 0.5, 0.1]).unwrap();
+    let x = export::mitsuba(&Colour::grey(&phong), "p").unwrap();
+    assert!(
+        p95(&x) > 10.0 && x.contains("warning: the refit is more than 10 % off"),
+        "{x}"
+    );
+    // data/cayman.astm's colour fit (31 wavelengths): a sharp D3 lobe of index 1.05 whose red
+    // pd is clamped to 0 (outside the sRGB gamut).
+    let cayman = Model::new(
+        ModelKind::TorranceSparrow,
+        Distribution::D3,
+        &[1.05, 0.0051, 1.79, 0.037],
+    )
+    .unwrap();
+    let mut c = Colour::grey(&cayman);
+    c.pd = [0.0, 0.037, 0.059];
+    c.ps = [1.73, 1.79, 1.84];
+    let x = export::mitsuba(&c, "m").unwrap();
+    assert!(p95(&x) < 10.0 && !x.contains("warning"), "{x}");
 }
 
 /// An RGB fit whose channels' lobes differ (VCH golden yellow, ggx-smith per channel: n from

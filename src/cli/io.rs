@@ -251,11 +251,15 @@ pub(crate) fn run_export(args: ExportArgs) -> Result<()> {
         ExportFormat::BrdfExplorer => Some(export::brdf_explorer(&c).map_err(fail)?),
         ExportFormat::Merl | ExportFormat::Csv => None,
     };
-    if !quiet()
-        && let Some(t) = &text
+    // The refit's error is a note, or a warning (even with --quiet) where it is not faithful.
+    if let Some(t) = &text
         && let Some(line) = t.lines().find(|l| l.trim_start().starts_with("refitted:"))
     {
-        eprintln!("note: {}: {}", fit.display(), line.trim());
+        match line.split_once(" warning: ") {
+            Some((_, w)) => eprintln!("warning: {}: {w}", fit.display()),
+            None if !quiet() => eprintln!("note: {}: {}", fit.display(), line.trim()),
+            None => {}
+        }
     }
     match (text, output) {
         (Some(t), None) => print(&t),

@@ -996,7 +996,9 @@ impl Picked {
                 errors.join(", ")
             ));
         }
-        let mix = |pick: fn(&(f64, f64, f64)) -> f64| -> [f64; 3] {
+        // A spectrum outside the sRGB gamut has a negative linear component: it is clamped to
+        // 0, and a note says so.
+        let mut mix = |name: &str, pick: fn(&(f64, f64, f64)) -> f64| -> [f64; 3] {
             let mut out = [0.0; 3];
             for (c, wc) in coef.iter().zip(&w) {
                 let v = pick(c);
@@ -1004,13 +1006,22 @@ impl Picked {
                     out[k] += wc[k] * v;
                 }
             }
+            if out.iter().any(|&x| x < 0.0) {
+                let show = |v: [f64; 3]| v.map(crate::model::readable).join(", ");
+                notes.push(format!(
+                    "outside the sRGB gamut: {name} in linear sRGB is ({}); its negative part is clamped to 0, giving ({})",
+                    show(out),
+                    show(out.map(|x| x.max(0.0)))
+                ));
+            }
             out.map(|x| x.max(0.0))
         };
+        let (pd, ps, ps2) = (mix("pd", |c| c.1), mix("ps", |c| c.0), mix("ps2", |c| c.2));
         Ok(Colour {
             model: ch[reference].model,
-            pd: mix(|c| c.1),
-            ps: mix(|c| c.0),
-            ps2: mix(|c| c.2),
+            pd,
+            ps,
+            ps2,
             notes,
             exact,
         })
