@@ -163,12 +163,17 @@ fn default_pipeline_reaches_the_best_of_64_random_starts_on_every_real_file() {
         println!("| {f} | {} |", cells.join(" | "));
     }
     for r in &rows {
-        // The models added last (Löw's ABC lobe, two GGX lobes: a 2-D shape grid) do not yet
-        // reach the best random start everywhere: measured worst 1.0055× (ggx-smith-2,
-        // vch_golden_yellow g) and 1.0006× (abc, acryl_blue 580 nm). Their bound is 1 % until
-        // their initialisation is refined; every other model keeps 1e-6.
-        let newer = r.model.contains("abc") || r.model.contains("ggx-smith-2");
-        let tol = if newer { 1e-2 } else { 1e-6 };
+        // The models added last do not yet reach the best random start everywhere (measured
+        // worst, coarse to fine: ABC 1.000069× on acryl_blue 640 nm, a lobe near c = 50;
+        // ggx-smith-2 1.0055× on vch_golden_yellow g and 1.00004× on acryl_blue). Every other
+        // model keeps 1e-6.
+        let tol = if r.model.contains("abc") {
+            1e-4
+        } else if r.model.contains("ggx-smith-2") {
+            1e-2
+        } else {
+            1e-6
+        };
         let within = r.pipeline <= r.reference * (1.0 + tol);
         if !within {
             failures.push(format!(

@@ -150,6 +150,79 @@ impl LobeTables {
     }
 }
 
+/// The Gram sums of [`gram_sums`] for two lobes of the same form sharing the Fresnel factor
+/// (ggx-smith-2 on one channel) at every point of a grid α1 × α2 × n, from three matrix
+/// products per n: with u = w F(n)², Σ u L(αa) L(αb) for every pair of the grid's α, and
+/// Σ w F(n) L(αa), Σ (w f) F(n) L(αa) for every α; nothing evaluated per point.
+pub(super) struct TwoLobeGram {
+    /// Per n: Σ w F² La Lb, row-major over the α grid.
+    ll: Vec<Vec<f64>>,
+    /// Per n: Σ w F La.
+    l: Vec<Vec<f64>>,
+    /// Per n: Σ (w f) F La.
+    h: Vec<Vec<f64>>,
+    na: usize,
+    /// Σ w and Σ w f.
+    w1: f64,
+    f1: f64,
+}
+
+impl TwoLobeGram {
+    fn new(tables: &LobeTables, alphas: &[f64], ns: &[f64], w: &[f64], wf: &[f64]) -> Option<Self> {
+        use nalgebra::{DMatrix, DVector};
+        let (m, na) = (tables.m, alphas.len());
+        let lobes: Vec<&[f64]> = alphas
+            .iter()
+            .map(|&a| tables.lobe(a))
+            .collect::<Option<_>>()?;
+        let lm = DMatrix::from_fn(na, m, |a, r| lobes[a][r]);
+        let (mut ll, mut l, mut h) = (Vec::new(), Vec::new(), Vec::new());
+        for &n in ns {
+            let f = tables.fresnel(n)?;
+            let lu = DMatrix::from_fn(na, m, |a, r| lm[(a, r)] * w[r] * f[r] * f[r]);
+            let g = lu * lm.transpose();
+            ll.push((0..na * na).map(|k| g[(k / na, k % na)]).collect());
+            l.push(
+                (&lm * DVector::from_fn(m, |r, _| w[r] * f[r]))
+                    .as_slice()
+                    .to_vec(),
+            );
+            h.push(
+                (&lm * DVector::from_fn(m, |r, _| wf[r] * f[r]))
+                    .as_slice()
+                    .to_vec(),
+            );
+        }
+        let (w1, f1) = (w.iter().sum(), wf.iter().sum());
+        Some(TwoLobeGram {
+            ll,
+            l,
+            h,
+            na,
+            w1,
+            f1,
+        })
+    }
+
+    /// The Gram matrix (row-major) and right-hand side of the bases (lobe at α index `a1`,
+    /// lobe at `a2`, ones) at n index `j`, as [`gram_sums`] gives them.
+    fn gram(&self, a1: usize, a2: usize, j: usize) -> (Vec<f64>, Vec<f64>) {
+        let (ll, l, h, na) = (&self.ll[j], &self.l[j], &self.h[j], self.na);
+        let g = vec![
+            ll[a1 * na + a1],
+            ll[a1 * na + a2],
+            l[a1],
+            ll[a2 * na + a1],
+            ll[a2 * na + a2],
+            l[a2],
+            l[a1],
+            l[a2],
+            self.w1,
+        ];
+        (g, vec![h[a1], h[a2], self.f1])
+    }
+}
+
 /// [Σw, Σwf, Σwf²] of rows with weights w and data f.
 pub(super) fn basis_free_sums(w: &[f64], f: &[f64]) -> [f64; 3] {
     let mut k = [0.0; 3];
@@ -650,6 +723,17 @@ pub(super) const INIT_ROWS: usize = 500;
 /// How many candidates of distinct basins the global initialisation hands to the local method.
 pub(super) const CANDIDATES: usize = 4;
 
+/// Grids of more points than this (to score) are searched coarse to fine ([`search_grid`]),
+/// except two lobes' (ggx-smith-2's half grid α1 ≤ α2, 3,230 points).
+pub(super) const COARSE_ABOVE: usize = 1024;
+
+/// Local minima of the coarse grid whose neighbourhoods are searched on the full grid.
+pub(super) const COARSE_SEEDS: usize = 8;
+
+/// The largest starting grid: beyond it the longest axis keeps every other value
+/// ([`grid_points`]). Two shapes and an index (α1 × α2 × n, 19 × 19 × 17) stay whole.
+pub(super) const GRID_LIMIT: usize = 8192;
+
 /// Variable projection over a grid of the nonlinear parameters that spans each one's whole
 /// admissible range ([`crate::model::ParamSpec::grid`]): at each grid point the free linear
 /// parameters of each channel (every lobe's ps, and pd) come from a weighted non-negative
@@ -729,6 +813,16 @@ pub(super) fn global_init(
                 let table = f.grid_sums(&wdata, &wf);
                 Some((f, table))
             })
+            .flatten()
+    });
+    // Two GGX lobes on one channel with α1, α2 and n free: every point's Gram sums at once.
+    let two_lobes = lobe_tables.as_ref().and_then(|t| {
+        let roles: Vec<Role> = nonlinear.iter().map(|(k, _)| specs[*k].role).collect();
+        (kind == ModelKind::GgxSmith2
+            && p.layout.len() == 1
+            && roles == [Role::Shape, Role::Shape, Role::Index]
+            && nonlinear[0].1 == nonlinear[1].1)
+            .then(|| TwoLobeGram::new(t, &nonlinear[0].1, &nonlinear[2].1, &wdata, &wf))
             .flatten()
     });
     let (ones, zeros) = (vec![1.0; p.rows.len()], vec![0.0; p.rows.len()]);
@@ -846,7 +940,13 @@ pub(super) fn global_init(
                     a: &ones[..n],
                     b: &ones[..n],
                 });
-                let (g, h) = gram_sums(&bases, &wdata[rows.clone()], &wf[rows.clone()]);
+                let (g, h) = match &two_lobes {
+                    Some(t) => {
+                        let (d1, d2) = (dims[1] * dims[2], dims[2]);
+                        t.gram(index / d1, (index / d2) % dims[1], index % d2)
+                    }
+                    None => gram_sums(&bases, &wdata[rows.clone()], &wf[rows.clone()]),
+                };
                 let x0 = linear_solve(&g, &h, &held, &free);
                 let pass =
                     |x: &[f64]| linear_pass_many(&p.rows, rows.clone(), &bases, x, opts.loss);
@@ -887,16 +987,59 @@ pub(super) fn global_init(
         };
         (score, x)
     };
-    // Every point scored at the linear solve's (ps, pd) (an upper bound of its best score),
-    // then the promising ones with (ps, pd) minimising the declared loss.
-    use rayon::prelude::*;
-    let mut scored: Vec<(f64, Vec<f64>)> = (0..points.len())
-        .into_par_iter()
-        .map(|i| score_point(i, 0))
+    // Two lobes of the same form with both coefficients free: the point (α1, α2) is the point
+    // (α2, α1) with the lobes swapped, so only α1 ≤ α2 is scored.
+    let strides: Vec<usize> = (0..dims.len())
+        .map(|d| dims[d + 1..].iter().product())
         .collect();
-    let first: Vec<f64> = scored.iter().map(|s| s.0).collect();
-    let mut refine = grid_minima(&first, &dims, REFINED_POINTS);
-    let mut order: Vec<usize> = (0..first.len()).collect();
+    let mirror = (kind == ModelKind::GgxSmith2)
+        .then(|| {
+            let axes: Vec<usize> = (0..nonlinear.len())
+                .filter(|&d| specs[nonlinear[d].0].role == Role::Shape)
+                .collect();
+            let both_free = p
+                .layout
+                .iter()
+                .all(|slots| ips.iter().all(|&i| matches!(slots[i], Slot::Free(_))));
+            (axes.len() == 2 && both_free && nonlinear[axes[0]].1 == nonlinear[axes[1]].1)
+                .then(|| (axes[0], axes[1]))
+        })
+        .flatten();
+    let admissible = |i: usize| {
+        mirror.is_none_or(|(d1, d2)| (i / strides[d1]) % dims[d1] <= (i / strides[d2]) % dims[d2])
+    };
+    // The points the search asks for, scored at the linear solve's (ps, pd) (an upper bound
+    // of its best score), then the promising ones with (ps, pd) minimising the declared loss.
+    use rayon::prelude::*;
+    let mut scored: Vec<(f64, Vec<f64>)> = vec![(f64::INFINITY, Vec::new()); points.len()];
+    // Two lobes: the whole (half) grid, as a lobe a coarse step narrower than its neighbours
+    // can carry the basin (vch_golden_yellow b: α1 0.0076 with ps1 9e-4 beside α2 0.12, which
+    // coarse to fine missed by 2 %).
+    let coarse_above = if mirror.is_some() {
+        usize::MAX
+    } else {
+        COARSE_ABOVE
+    };
+    let (first, found) = search_grid(&dims, coarse_above, admissible, |idx| {
+        let s: Vec<(f64, Vec<f64>)> = idx.par_iter().map(|&i| score_point(i, 0)).collect();
+        let out = s.iter().map(|s| s.0).collect();
+        for (&i, s) in idx.iter().zip(s) {
+            scored[i] = s;
+        }
+        out
+    });
+    // The grid's local minima by `scores`, best first: searched coarse to fine, those found.
+    let minima = |scores: &[f64], limit: usize| match &found {
+        None => grid_minima(scores, &dims, limit),
+        Some(found) => {
+            let mut m = found.clone();
+            m.sort_by(|&a, &b| scores[a].total_cmp(&scores[b]).then(a.cmp(&b)));
+            m.truncate(limit);
+            m
+        }
+    };
+    let mut refine = minima(&first, REFINED_POINTS);
+    let mut order: Vec<usize> = (0..first.len()).filter(|&i| first[i].is_finite()).collect();
     order.sort_by(|&a, &b| first[a].total_cmp(&first[b]).then(a.cmp(&b)));
     refine.extend(order.into_iter().take(REFINED_POINTS));
     refine.sort_unstable();
@@ -911,16 +1054,16 @@ pub(super) fn global_init(
         }
     }
     let scores: Vec<f64> = scored.iter().map(|s| s.0).collect();
-    grid_minima(&scores, &dims, CANDIDATES)
+    minima(&scores, CANDIDATES)
         .into_iter()
         .map(|i| scored[i].1.clone())
         .collect()
 }
 
 /// The starting grid of the nonlinear free variables: which variables have a grid, the grid
-/// sizes, and every grid point (row-major). While the product of their sizes exceeds 4,096
-/// (several shape parameters, or a joint fit with per-channel ones) the longest grid (the
-/// first of equals) keeps every other value.
+/// sizes, and every grid point (row-major). While the product of their sizes exceeds
+/// [`GRID_LIMIT`] (a joint fit with per-channel shape parameters) the longest grid (the first
+/// of equals) keeps every other value.
 pub(super) fn grid_points(specs: &[&ParamSpec], nfree: usize) -> GridPoints {
     let mut nonlinear: Vec<(usize, Vec<f64>)> = (0..nfree)
         .filter_map(|k| {
@@ -928,9 +1071,8 @@ pub(super) fn grid_points(specs: &[&ParamSpec], nfree: usize) -> GridPoints {
             (!g.is_empty()).then_some((k, g))
         })
         .collect();
-    // The longest grid is halved first, so two shapes and an index (19 × 19 × 17) keep
-    // 10 × 19 × 17 points rather than every grid halved (10 × 10 × 9).
-    while nonlinear.iter().map(|(_, g)| g.len()).product::<usize>() > 4096 {
+    // The longest grid is halved first (the first of equals), one at a time.
+    while nonlinear.iter().map(|(_, g)| g.len()).product::<usize>() > GRID_LIMIT {
         let longest = (0..nonlinear.len())
             .max_by(|&a, &b| {
                 nonlinear[a]
@@ -939,7 +1081,7 @@ pub(super) fn grid_points(specs: &[&ParamSpec], nfree: usize) -> GridPoints {
                     .cmp(&nonlinear[b].1.len())
                     .then(b.cmp(&a))
             })
-            .expect("a product over 4,096 has a grid");
+            .expect("a product over the limit has a grid");
         let g = &mut nonlinear[longest].1;
         *g = g.iter().step_by(2).copied().collect();
     }
@@ -1038,6 +1180,106 @@ pub(super) fn grid_minima(scores: &[f64], dims: &[usize], limit: usize) -> Vec<u
         }
     }
     kept
+}
+
+/// The points of the box of half-width `radius` (in grid steps, clipped at the edges) around
+/// point `i` of a grid (row-major over `dims`), `i` included.
+pub(super) fn grid_box(i: usize, radius: usize, dims: &[usize]) -> Vec<usize> {
+    let mut out = vec![0usize];
+    let mut stride = 1;
+    for d in (0..dims.len()).rev() {
+        let c = (i / stride) % dims[d];
+        let (lo, hi) = (c.saturating_sub(radius), (c + radius).min(dims[d] - 1));
+        out = out
+            .iter()
+            .flat_map(|&o| (lo..=hi).map(move |v| o + v * stride))
+            .collect();
+        stride *= dims[d];
+    }
+    out.sort_unstable();
+    out
+}
+
+/// Search a grid (row-major over `dims`) for its local minima, scoring only the points that
+/// `admissible` admits, through `score` (the scores of the points asked, in that order).
+/// Up to `coarse_above` admissible points, every one is scored. Beyond, coarse to fine:
+/// the coarse grid (every other value of each axis, and its last) is scored; around each of
+/// its best [`COARSE_SEEDS`] local minima the box of half-width 2 (one coarse step) is scored
+/// on the full grid, and from the box's lowest point a descent scores the box of half-width 1
+/// around the current point and moves to its lowest point until the current point is the
+/// lowest of its box, a minimum of the full grid. Returns every point's score (+∞ where not
+/// scored) and, coarse to fine, the minima found, best first: the descents' ends, then the
+/// coarse grid's other local minima (basins not searched further, above every searched one).
+pub(super) fn search_grid(
+    dims: &[usize],
+    coarse_above: usize,
+    admissible: impl Fn(usize) -> bool,
+    mut score: impl FnMut(&[usize]) -> Vec<f64>,
+) -> (Vec<f64>, Option<Vec<usize>>) {
+    let total: usize = dims.iter().product();
+    let mut scores = vec![f64::INFINITY; total];
+    let mut done = vec![false; total];
+    let mut run = |idx: Vec<usize>, scores: &mut Vec<f64>, done: &mut Vec<bool>| {
+        let idx: Vec<usize> = idx
+            .into_iter()
+            .filter(|&i| !done[i] && admissible(i))
+            .collect();
+        for (&i, s) in idx.iter().zip(score(&idx)) {
+            scores[i] = s;
+            done[i] = true;
+        }
+    };
+    let all: Vec<usize> = (0..total).filter(|&i| admissible(i)).collect();
+    if all.len() <= coarse_above {
+        run(all, &mut scores, &mut done);
+        return (scores, None);
+    }
+    // The coarse grid: coarse coordinate k is fine coordinate min(2k, last).
+    let cdims: Vec<usize> = dims.iter().map(|&n| n / 2 + 1).collect();
+    let fine = |ci: usize| {
+        let (mut i, mut cs, mut fs) = (0, 1, 1);
+        for d in (0..dims.len()).rev() {
+            let k = (ci / cs) % cdims[d];
+            i += (2 * k).min(dims[d] - 1) * fs;
+            cs *= cdims[d];
+            fs *= dims[d];
+        }
+        i
+    };
+    let coarse: Vec<usize> = (0..cdims.iter().product()).map(fine).collect();
+    run(coarse.clone(), &mut scores, &mut done);
+    let cscores: Vec<f64> = coarse.iter().map(|&i| scores[i]).collect();
+    let minima: Vec<usize> = grid_minima(&cscores, &cdims, usize::MAX)
+        .into_iter()
+        .map(|ci| coarse[ci])
+        .collect();
+    let lowest = |b: &[usize], scores: &[f64]| {
+        b.iter()
+            .copied()
+            .min_by(|&p, &q| scores[p].total_cmp(&scores[q]).then(p.cmp(&q)))
+    };
+    let mut found = Vec::new();
+    for &seed in minima.iter().take(COARSE_SEEDS) {
+        let b = grid_box(seed, 2, dims);
+        run(b.clone(), &mut scores, &mut done);
+        let mut at = lowest(&b, &scores).unwrap_or(seed);
+        // Bounded: each move goes to a strictly lower point.
+        for _ in 0..total {
+            let b = grid_box(at, 1, dims);
+            run(b.clone(), &mut scores, &mut done);
+            let next = lowest(&b, &scores).unwrap_or(at);
+            if !(scores[next] < scores[at]) {
+                break;
+            }
+            at = next;
+        }
+        found.push(at);
+    }
+    found.sort_by(|&p, &q| scores[p].total_cmp(&scores[q]).then(p.cmp(&q)));
+    found.dedup();
+    found.extend(minima.iter().skip(COARSE_SEEDS));
+    found.retain(|&i| scores[i].is_finite());
+    (scores, Some(found))
 }
 
 #[cfg(test)]
@@ -1241,15 +1483,116 @@ mod tests {
         assert!(close(&x, [2.0, 0.0]), "{x:?}");
     }
 
-    /// Two shape parameters and an index (19 × 19 × 17 > 4,096 points): the longest grid
-    /// (the first of equals) is halved once, to 10 × 19 × 17.
+    /// Two shape parameters and an index (19 × 19 × 17 = 6,137 ≤ 8,192 points) keep the whole
+    /// grid; three and an index (116,603) halve the longest axis, the first of equals, one at a
+    /// time: 10·19·19·17 = 61,370, 10·10·19·17 = 32,300, 10·10·10·17 = 17,000,
+    /// 10·10·10·9 = 9,000, then 5·10·10·9 = 4,500.
     #[test]
-    fn two_shapes_and_an_index_keep_most_of_the_grid() {
+    fn two_shapes_and_an_index_keep_the_whole_grid() {
         let specs = ModelKind::TorranceSparrow.params(Distribution::D3);
         let (n, c3) = (&specs[0], &specs[1]);
         let (_, dims, points) = grid_points(&[c3, c3, n], 3);
-        assert_eq!(dims, vec![10, 19, 17]);
-        assert_eq!(points.len(), 10 * 19 * 17);
+        assert_eq!(dims, vec![19, 19, 17]);
+        assert_eq!(points.len(), 19 * 19 * 17);
+        let (_, dims, points) = grid_points(&[c3, c3, c3, n], 4);
+        assert_eq!(dims, vec![5, 10, 10, 9]);
+        assert_eq!(points.len(), 4500);
+    }
+
+    /// Hand-worked: on a 3 × 4 grid the box of half-width 1 around (1, 0) is rows 0–2,
+    /// columns 0–1; of half-width 2 around (0, 3), rows 0–2, columns 1–3.
+    #[test]
+    fn grid_box_by_hand() {
+        assert_eq!(grid_box(4, 1, &[3, 4]), vec![0, 1, 4, 5, 8, 9]);
+        assert_eq!(grid_box(3, 2, &[3, 4]), vec![1, 2, 3, 5, 6, 7, 9, 10, 11]);
+        assert_eq!(grid_box(0, 1, &[1]), vec![0]);
+    }
+
+    /// Coarse to fine on a 19 × 19 × 17 grid: a broad bowl whose lowest point (5, 11, 7) has
+    /// odd coordinates (off the coarse grid), and a narrow deeper well at (13, 3, 9), also odd,
+    /// whose coarse neighbours are still lower than the bowl's: both found, the well the
+    /// lowest, as the brute-force minimum over every point says; fewer than half the points
+    /// scored, none inadmissible (the half i > j below 13), none twice, and every neighbour of
+    /// the two minima scored.
+    #[test]
+    fn coarse_to_fine_finds_the_full_grids_minima() {
+        let dims = [19usize, 19, 17];
+        let at = |i: usize| [i / (19 * 17), (i / 17) % 19, i % 17];
+        let f = |i: usize| {
+            let c = at(i).map(|v| v as f64);
+            let d2 = |p: [f64; 3]| (0..3).map(|k| (c[k] - p[k]).powi(2)).sum::<f64>();
+            10.0 + 0.01 * d2([5.0, 11.0, 7.0]) - 9.0 * (-d2([13.0, 3.0, 9.0]) / 4.0).exp()
+        };
+        let total: usize = dims.iter().product();
+        let admissible = |i: usize| at(i)[0] <= at(i)[1] || at(i)[0] >= 13;
+        let mut asked = vec![0usize; total];
+        let (scores, minima) = search_grid(&dims, COARSE_ABOVE, admissible, |idx| {
+            idx.iter()
+                .map(|&i| {
+                    asked[i] += 1;
+                    f(i)
+                })
+                .collect()
+        });
+        let brute = (0..total)
+            .filter(|&i| admissible(i))
+            .min_by(|&a, &b| f(a).total_cmp(&f(b)))
+            .unwrap();
+        assert_eq!(at(brute), [13, 3, 9]);
+        let minima = minima.expect("searched coarse to fine");
+        assert_eq!(minima[0], brute, "{:?}", at(minima[0]));
+        assert_eq!(at(minima[1]), [5, 11, 7]);
+        for &m in &minima[..2] {
+            for j in grid_box(m, 1, &dims) {
+                assert!(!admissible(j) || asked[j] == 1, "{:?}", at(j));
+            }
+        }
+        let n: usize = asked.iter().sum();
+        assert!(n < total / 2, "{n} of {total} scored");
+        assert!((0..total).all(|i| asked[i] <= 1 && (admissible(i) || asked[i] == 0)));
+        assert!((0..total).all(|i| (asked[i] == 1) == scores[i].is_finite()));
+    }
+
+    /// A small grid is scored whole.
+    #[test]
+    fn small_grids_are_scored_whole() {
+        let (scores, minima) = search_grid(
+            &[17, 19],
+            COARSE_ABOVE,
+            |_| true,
+            |idx| vec![1.0; idx.len()],
+        );
+        assert!(scores.iter().all(|&s| s == 1.0) && minima.is_none());
+    }
+
+    /// The two-lobe Gram sums from the matrix products equal, point by point, the row loop of
+    /// [`gram_sums`] over the tabulated bases (lobe at α1, lobe at α2, ones).
+    #[test]
+    fn two_lobe_gram_matches_the_row_sums() {
+        let rows = spread_rows();
+        let m = rows.len();
+        let w: Vec<f64> = (0..m).map(|i| 0.5 + (i % 7) as f64 / 7.0).collect();
+        let wf: Vec<f64> = (0..m).map(|i| w[i] * (0.2 + (i % 5) as f64)).collect();
+        let specs = ModelKind::GgxSmith2.params(Distribution::D3);
+        let (alphas, ns) = (specs[0].grid_values(), specs[4].grid_values());
+        let t = LobeTables::new(&rows, &alphas, &ns);
+        let g = TwoLobeGram::new(&t, &alphas, &ns, &w, &wf).expect("every value tabulated");
+        let ones = vec![1.0; m];
+        for (a1, a2, j) in [(0, 0, 0), (2, 9, 5), (9, 2, 16), (18, 18, 3), (4, 17, 11)] {
+            let bases = [
+                t.basis(alphas[a1], ns[j], 0..m).unwrap(),
+                t.basis(alphas[a2], ns[j], 0..m).unwrap(),
+                Basis { a: &ones, b: &ones },
+            ];
+            let (want_g, want_h) = gram_sums(&bases, &w, &wf);
+            let (got_g, got_h) = g.gram(a1, a2, j);
+            for (got, want) in got_g.iter().chain(&got_h).zip(want_g.iter().chain(&want_h)) {
+                assert!(
+                    (got - want).abs() <= 1e-12 * want.abs().max(1e-300),
+                    "({a1}, {a2}, {j}): {got} vs {want}"
+                );
+            }
+        }
     }
 
     /// Visible rows spread over the hemisphere, incidence and azimuth varied (in and out of
