@@ -205,7 +205,7 @@ fn cr(t: f64) -> [f64; 4] {
     ]
 }
 
-/// Distinct sorted keys and whether they are evenly spaced (step > 0).
+/// The distinct keys, sorted.
 fn distinct(keys: impl Iterator<Item = i64>) -> Vec<i64> {
     let mut v: Vec<i64> = keys.collect();
     v.sort_unstable();
