@@ -74,6 +74,15 @@ pub enum Lookup {
         /// The floor δ added to both f_data and f_fill (f_r units).
         delta: f64,
     },
+    /// f = (f_fill + δ)·e^v − δ, at least 0, with v interpolated on a goniometer's own grid
+    /// (see [`crate::render::reconstruct::GonioGrid`]); the cells hold the table's log ratios
+    /// (for `filled` and the measured share only).
+    Grid {
+        /// The floor δ added to both f_data and f_fill (f_r units).
+        delta: f64,
+        /// The grid of log ratios.
+        grid: std::sync::Arc<crate::render::reconstruct::GonioGrid>,
+    },
     /// An exact BRDF evaluated at every lookup (a truth such as a Neural-BRDF network); the
     /// cells are unused.
     Exact(std::sync::Arc<dyn Fn(&Geometry) -> f64 + Send + Sync>),
@@ -84,6 +93,7 @@ impl std::fmt::Debug for Lookup {
         match self {
             Lookup::Residual => write!(f, "Residual"),
             Lookup::Ratio { delta } => write!(f, "Ratio {{ delta: {delta} }}"),
+            Lookup::Grid { delta, .. } => write!(f, "Grid {{ delta: {delta} }}"),
             Lookup::Exact(_) => write!(f, "Exact"),
         }
     }
@@ -266,9 +276,25 @@ impl Tabulated {
         if !g.visible() {
             return 0.0;
         }
-        if let Lookup::Exact(f) = &self.lookup {
-            return f(g).max(0.0);
+        match &self.lookup {
+            Lookup::Exact(f) => return f(g).max(0.0),
+            Lookup::Grid { delta, grid } => {
+                let v = grid.log_ratio(g);
+                return ((self.fill.brdf(g) + delta) * v.exp() - delta).max(0.0);
+            }
+            _ => {}
         }
+        let v = self.table_value(g);
+        match self.lookup {
+            Lookup::Ratio { delta } => ((self.fill.brdf(g) + delta) * v.exp() - delta).max(0.0),
+            _ => (self.fill.brdf(g) + v).max(0.0),
+        }
+    }
+
+    /// The cell values interpolated at a configuration: Catmull–Rom along θh for log ratios,
+    /// else trilinear.
+    #[inline]
+    fn table_value(&self, g: &Geometry) -> f64 {
         let c = coordinates(g);
         let [nh, nd, np] = self.dims.0;
         let axis = |u: f64, m: usize| {
@@ -288,7 +314,7 @@ impl Tabulated {
                 fd,
             )
         };
-        let v = match self.lookup {
+        match self.lookup {
             // Catmull–Rom (cubic, through the cell centres) along θh, where a lobe's ratio to
             // its model curves most; linear in θd and φd. The values are log ratios, so an
             // overshoot cannot make f_r negative.
@@ -302,10 +328,6 @@ impl Tabulated {
                     * (c - a + t * (2.0 * a - 5.0 * b + 4.0 * c - d + t * (3.0 * (b - c) + d - a)))
             }
             _ => lerp(plane(h0), plane(h1), fh),
-        };
-        match self.lookup {
-            Lookup::Ratio { delta } => ((self.fill.brdf(g) + delta) * v.exp() - delta).max(0.0),
-            _ => (self.fill.brdf(g) + v).max(0.0),
         }
     }
 }

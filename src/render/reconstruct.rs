@@ -27,6 +27,23 @@
 //!   measured range the ratio of the nearest measured configurations continues. These cells
 //!   are marked (`filled`): [`Tabulated::fill_share`] and [`Tabulated::is_measured`] count
 //!   them as not measured.
+//!
+//! **A goniometer's grid** (issue 23). When the samples fill a regular grid in the
+//! instrument's own coordinates — θi slices, θo at a uniform step, the azimuth Δφ = φo − φi at
+//! a uniform step over the circle (or half of it, mirrored by isotropy) — a lookup does not
+//! use the table's cells but interpolates the log ratios at the samples themselves
+//! ([`GonioGrid`]), where there is no θh → 0 degeneracy: within a θi slice bicubically
+//! (Catmull–Rom in θo, periodic in Δφ); between slices by Catmull–Rom in θi (linear where the
+//! slices are not evenly spaced), each slice evaluated with the view rotated so that its
+//! offset from that slice's mirror direction is kept (interpolation along the lobe, not at
+//! equal θo: in the plane of incidence θh is kept and θd moves with θi). By reciprocity the
+//! same is done with light and view exchanged (the dense θo axis then serves as θi), and the
+//! two estimates are blended by the inverse square of how far each reaches beyond the
+//! measured configurations (the distance to the nearest slice plus any θo beyond the last),
+//! so the lookup passes through every sample. Beyond the measured angles the ratio of the
+//! last slice (along the lobe) or of the last θo continues; the table still marks those
+//! cells as filled. Measured against the exact renders of five MERL networks, this lowered
+//! the front-lit ꟻLIP p99 from 0.05–0.11 to 0.02–0.05 (README).
 
 use crate::data::Dataset;
 use crate::model::{Geometry, Model};
@@ -55,6 +72,8 @@ pub fn reconstruct(ds: &Dataset, dims: Dims, fill: Model) -> Tabulated {
     let mut pos = Vec::with_capacity(ds.len());
     let mut data = Vec::with_capacity(ds.len());
     let mut model = Vec::with_capacity(ds.len());
+    let mut keys = Vec::with_capacity(ds.len());
+    let key = |x: f64| (x.to_degrees() * 100.0).round() as i64;
     for k in 0..ds.len().min(values.len()) {
         let g = Geometry::from_angles(ds.theta_i[k], ds.phi_i[k], ds.theta_o[k], ds.phi_o[k]);
         let y = values[k] * ds.quantity.to_brdf_factor(g.nl);
@@ -65,6 +84,11 @@ pub fn reconstruct(ds: &Dataset, dims: Dims, fill: Model) -> Tabulated {
         pos.push([c[0] * n[0], c[1] * n[1], c[2] * n[2]]);
         data.push(y);
         model.push(fill.brdf(&g).max(0.0));
+        keys.push([
+            key(ds.theta_i[k]),
+            key(ds.theta_o[k]),
+            key((ds.phi_o[k] - ds.phi_i[k]).rem_euclid(std::f64::consts::TAU)).rem_euclid(36000),
+        ]);
     }
     let mean = data.iter().sum::<f64>() / data.len().max(1) as f64;
     let delta = 1e-3 * mean + 1e-12;
@@ -130,13 +154,219 @@ pub fn reconstruct(ds: &Dataset, dims: Dims, fill: Model) -> Tabulated {
     }
     laplace_fill(dims, &mut out, &known);
     let filled = known.iter().map(|k| !k).collect();
+    let lookup = match GonioGrid::new(&keys, &val) {
+        Some(grid) => Lookup::Grid {
+            delta,
+            grid: std::sync::Arc::new(grid),
+        },
+        None => Lookup::Ratio { delta },
+    };
     Tabulated::from_parts(
         dims,
-        Lookup::Ratio { delta },
+        lookup,
         out.into_iter().map(|v| v as f32).collect(),
         filled,
         fill,
     )
+}
+
+/// Exponent of the blend of the direct and the reciprocal estimate by their reach.
+const BLEND_POWER: f64 = 2.0;
+
+/// Floor of an estimate's reach in that blend (radians, 0.01°).
+const REACH_FLOOR: f64 = 0.01 * std::f64::consts::PI / 180.0;
+
+/// A goniometer's measurement as a regular grid of log ratios to the base model: θi slices,
+/// θo at a uniform step, the azimuth Δφ = φo − φi at a uniform step over the whole circle
+/// (a missing azimuth taken from its mirror image −Δφ by isotropy).
+#[derive(Debug)]
+pub struct GonioGrid {
+    /// θi of the slices (radians), ascending.
+    slices: Vec<f64>,
+    /// True when the slices are evenly spaced.
+    uniform: bool,
+    /// First θo, its step (radians) and count.
+    to: (f64, f64, usize),
+    /// First Δφ, its step (radians) and count (the whole circle).
+    ph: (f64, f64, usize),
+    /// Log ratios, Δφ fastest, then θo, then slice.
+    v: Vec<f64>,
+}
+
+/// Catmull–Rom weights at fraction `t` for the points −1, 0, 1, 2.
+#[inline]
+fn cr(t: f64) -> [f64; 4] {
+    let (t2, t3) = (t * t, t * t * t);
+    [
+        0.5 * (-t + 2.0 * t2 - t3),
+        0.5 * (2.0 - 5.0 * t2 + 3.0 * t3),
+        0.5 * (t + 4.0 * t2 - 3.0 * t3),
+        0.5 * (t3 - t2),
+    ]
+}
+
+/// The distinct keys, sorted.
+fn distinct(keys: impl Iterator<Item = i64>) -> Vec<i64> {
+    let mut v: Vec<i64> = keys.collect();
+    v.sort_unstable();
+    v.dedup();
+    v
+}
+
+impl GonioGrid {
+    /// The grid of `keys` (θi, θo, Δφ in hundredths of a degree, Δφ in [0, 36000)) with the
+    /// log ratios `val`; `None` unless the samples fill a regular grid.
+    fn new(keys: &[[i64; 3]], val: &[f64]) -> Option<GonioGrid> {
+        let ti = distinct(keys.iter().map(|k| k[0]));
+        let to = distinct(keys.iter().map(|k| k[1]));
+        let ph = distinct(keys.iter().map(|k| k[2]));
+        if !(2..=90).contains(&ti.len()) || to.len() < 4 || ph.len() < 2 {
+            return None;
+        }
+        let tstep = to[1] - to[0];
+        if tstep <= 0 || to.windows(2).any(|w| w[1] - w[0] != tstep) {
+            return None;
+        }
+        let pstep = ph.windows(2).map(|w| w[1] - w[0]).min()?;
+        if pstep <= 0 || 36000 % pstep != 0 || ph.iter().any(|p| (p - ph[0]) % pstep != 0) {
+            return None;
+        }
+        let (nti, nto, nph) = (ti.len(), to.len(), (36000 / pstep) as usize);
+        if nph < 4 {
+            return None;
+        }
+        let cells = nti * nto * nph;
+        let mut direct = vec![(0.0, 0u32); cells];
+        let mut mirror = vec![(0.0, 0u32); cells];
+        for (k, v) in keys.iter().zip(val) {
+            let i = ti.binary_search(&k[0]).ok()?;
+            let j = ((k[1] - to[0]) / tstep) as usize;
+            let base = (i * nto + j) * nph;
+            let l = ((k[2] - ph[0]) / pstep) as usize;
+            direct[base + l].0 += v;
+            direct[base + l].1 += 1;
+            let m = (36000 - k[2]) % 36000 - ph[0];
+            if m.rem_euclid(pstep) == 0 {
+                let l = (m.rem_euclid(36000) / pstep) as usize % nph;
+                mirror[base + l].0 += v;
+                mirror[base + l].1 += 1;
+            }
+        }
+        let mut out = Vec::with_capacity(cells);
+        for (d, m) in direct.iter().zip(&mirror) {
+            let (s, n) = if d.1 > 0 { *d } else { *m };
+            if n == 0 {
+                return None;
+            }
+            out.push(s / n as f64);
+        }
+        let rad = |x: i64| (x as f64 / 100.0).to_radians();
+        let sstep = if nti > 1 { ti[1] - ti[0] } else { 0 };
+        Some(GonioGrid {
+            slices: ti.iter().map(|&x| rad(x)).collect(),
+            uniform: ti.windows(2).all(|w| w[1] - w[0] == sstep),
+            to: (rad(to[0]), rad(tstep), nto),
+            ph: (rad(ph[0]), rad(pstep), nph),
+            v: out,
+        })
+    }
+
+    /// The log ratio within slice `k` at view (θo, Δφ), bicubic (Catmull–Rom in θo, periodic
+    /// in Δφ); θo beyond the measured range takes the nearest measured θo.
+    #[inline]
+    fn in_slice(&self, k: usize, to: f64, ph: f64) -> f64 {
+        let (t0, ts, nt) = self.to;
+        let x = ((to - t0) / ts).clamp(0.0, (nt - 1) as f64);
+        let i = (x as usize).min(nt - 2);
+        let wt = cr(x - i as f64);
+        let (p0, ps, np) = self.ph;
+        let y = ((ph - p0) / ps).rem_euclid(np as f64);
+        let j = (y as usize).min(np - 1);
+        let wp = cr(y - j as f64);
+        let mut s = 0.0;
+        for (a, wa) in wt.iter().enumerate() {
+            let row = (i + a).saturating_sub(1).min(nt - 1);
+            let base = (k * nt + row) * np;
+            let mut r = 0.0;
+            for (b, wb) in wp.iter().enumerate() {
+                r += wb * self.v[base + (j + np + b - 1) % np];
+            }
+            s += wa * r;
+        }
+        s
+    }
+
+    /// The log ratio at light θi `a`, view θo `b`, azimuth cos/sin of Δφ, from the θi slices:
+    /// between the two neighbouring slices (or the nearest beyond them), each evaluated where
+    /// the view keeps its offset from that slice's mirror direction (`along_lobe`).
+    fn estimate(&self, a: f64, b: f64, cp: f64, sp: f64) -> f64 {
+        let (sb, cb) = b.sin_cos();
+        let e = [sb * cp, sb * sp, cb];
+        let at = |k: usize| {
+            // The view rotated about the y axis by θi − θi_k as the light is rotated by
+            // θi_k − θi: its offset from the mirror direction is kept.
+            let (st, ct) = (self.slices[k] - a).sin_cos();
+            let x = e[0] * ct - e[2] * st;
+            let z = e[2] * ct + e[0] * st;
+            self.in_slice(k, x.hypot(e[1]).atan2(z), e[1].atan2(x))
+        };
+        let n = self.slices.len();
+        if a <= self.slices[0] {
+            return at(0);
+        }
+        if a >= self.slices[n - 1] {
+            return at(n - 1);
+        }
+        let k = self.slices.partition_point(|&s| s <= a) - 1;
+        let t = (a - self.slices[k]) / (self.slices[k + 1] - self.slices[k]);
+        if self.uniform && n >= 4 {
+            let w = cr(t);
+            let idx = [k.saturating_sub(1), k, k + 1, (k + 2).min(n - 1)];
+            let v = idx.map(at);
+            // At the ends the missing neighbour repeats the end slice.
+            w[0] * v[0] + w[1] * v[1] + w[2] * v[2] + w[3] * v[3]
+        } else {
+            (1.0 - t) * at(k) + t * at(k + 1)
+        }
+    }
+
+    /// How far an estimate with light θi `a` and view θo `b` reaches beyond the measured
+    /// configurations (radians): the distance of `a` to the nearest slice (or to the slices'
+    /// range) plus how far `b` lies beyond the measured θo.
+    fn reach(&self, a: f64, b: f64) -> f64 {
+        let n = self.slices.len();
+        let da = if a <= self.slices[0] {
+            self.slices[0] - a
+        } else if a >= self.slices[n - 1] {
+            a - self.slices[n - 1]
+        } else {
+            let k = self.slices.partition_point(|&s| s <= a) - 1;
+            (a - self.slices[k]).min(self.slices[k + 1] - a)
+        };
+        let (t0, ts, nt) = self.to;
+        da + (b - (t0 + ts * (nt - 1) as f64)).max(0.0) + (t0 - b).max(0.0)
+    }
+
+    /// The log ratio at a configuration: the direct estimate (θi interpolated between slices)
+    /// and the reciprocal one (θo and θi exchanged), blended by how far each reaches beyond
+    /// the measured configurations.
+    pub fn log_ratio(&self, g: &Geometry) -> f64 {
+        let a = g.nl.clamp(-1.0, 1.0).acos();
+        let b = g.ne.clamp(-1.0, 1.0).acos();
+        let le = 2.0 * g.nl * g.ne - g.re;
+        let den = a.sin() * b.sin();
+        let cp = if den > 1e-12 {
+            ((le - g.nl * g.ne) / den).clamp(-1.0, 1.0)
+        } else {
+            -1.0
+        };
+        let sp = (1.0 - cp * cp).max(0.0).sqrt();
+        let direct = self.estimate(a, b, cp, sp);
+        let recip = self.estimate(b, a, cp, sp);
+        let wa = (self.reach(a, b) + REACH_FLOOR).powf(-BLEND_POWER);
+        let wb = (self.reach(b, a) + REACH_FLOOR).powf(-BLEND_POWER);
+        (wa * direct + wb * recip) / (wa + wb)
+    }
 }
 
 /// The neighbours of a cell with their weights: ±1 in θh and θd (weight 1), ±1 in φd
@@ -236,6 +466,42 @@ mod tests {
             &[1.8, 0.35, 0.667, 0.333],
         )
         .unwrap()
+    }
+
+    /// On a goniometer's grid the lookup passes through every sample: data that are the
+    /// model times an arbitrary factor between 0.5 and 2 per sample (a hash of its angles, so
+    /// neighbours disagree) are returned at each sample's own configuration.
+    #[test]
+    fn grid_passes_through_every_sample() {
+        let m = ts();
+        let mut ds = Dataset::new(crate::data::Quantity::Brdf, vec![("v".into(), None)]);
+        let mut want = Vec::new();
+        for ti in (10..=70).step_by(20) {
+            for to in (0..=80).step_by(2) {
+                for po in (0..360).step_by(30) {
+                    let a = [ti, 0, to, po].map(|d| (d as f64).to_radians());
+                    let g = Geometry::from_angles(a[0], a[1], a[2], a[3]);
+                    // The same factor for the reciprocal and the mirrored configuration
+                    // (a sample's reciprocal is a sample too).
+                    let key = (ti.min(to) * 1000 + ti.max(to)) * 1000 + po.min(360 - po);
+                    let h = ((key as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40) as f64
+                        / (1u64 << 24) as f64;
+                    let y = m.brdf(&g) * 2f64.powf(2.0 * h - 1.0);
+                    ds.push(a, &[y]);
+                    want.push((g, y));
+                }
+            }
+        }
+        let t = reconstruct(&ds, Dims([16, 16, 8]), m);
+        assert!(matches!(t.lookup, Lookup::Grid { .. }));
+        for (g, y) in want {
+            // θo = 0: every azimuth is one configuration, the samples there disagree.
+            if g.ne > 0.9999 {
+                continue;
+            }
+            let got = t.brdf(&g);
+            assert!((got - y).abs() < 1e-3 * y, "{got} against {y}");
+        }
     }
 
     /// Data that are the model times 2 everywhere reconstruct as exactly twice the model, in

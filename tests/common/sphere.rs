@@ -65,18 +65,21 @@ pub fn render_model(scene: &Scene, m: Model) -> Image {
 /// The exact render: the symmetrised network's green channel at every shading point.
 pub fn exact(scene: &Scene, net: &Nbrdf) -> Image {
     let net = net.clone();
-    render_exact(scene, move |g: &Geometry| {
-        // Angles back from the cosines: L·E = 2 N·L N·E − R·E.
-        let (ti, to) = (g.nl.clamp(-1.0, 1.0).acos(), g.ne.clamp(-1.0, 1.0).acos());
-        let le = 2.0 * g.nl * g.ne - g.re;
-        let den = ti.sin() * to.sin();
-        let dphi = if den > 1e-12 {
-            ((le - g.nl * g.ne) / den).clamp(-1.0, 1.0).acos()
-        } else {
-            std::f64::consts::PI
-        };
-        net.eval_symmetric([ti, 0.0, to, dphi])[1]
-    })
+    render_exact(scene, move |g: &Geometry| net.eval_symmetric(angles(g))[1])
+}
+
+/// The angles (θi, 0, θo, Δφ ∈ [0, π]) of a configuration, back from its cosines:
+/// L·E = 2 N·L N·E − R·E.
+pub fn angles(g: &Geometry) -> [f64; 4] {
+    let (ti, to) = (g.nl.clamp(-1.0, 1.0).acos(), g.ne.clamp(-1.0, 1.0).acos());
+    let le = 2.0 * g.nl * g.ne - g.re;
+    let den = ti.sin() * to.sin();
+    let dphi = if den > 1e-12 {
+        ((le - g.nl * g.ne) / den).clamp(-1.0, 1.0).acos()
+    } else {
+        std::f64::consts::PI
+    };
+    [ti, 0.0, to, dphi]
 }
 
 /// A Lambert material (the exact tables' fill; it gives only the ambient term, 0 here).
