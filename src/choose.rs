@@ -600,20 +600,48 @@ fn render_with(scene: &Scene, material: crate::render::Material) -> (Image, f64)
 }
 
 fn errors(reference: &Image, test: &Image, mask: &[bool]) -> (Summary, Vec<f32>, Summary, f64) {
+    errors_against(&Prepared::new(reference, mask), test, mask)
+}
+
+/// A reference image with what every comparison against it needs computed once: its 8-bit
+/// sRGB pixels and its ITP over the mask.
+struct Prepared<'a> {
+    image: &'a Image,
+    srgb: Vec<u8>,
+    itp: Vec<[f64; 3]>,
+}
+
+impl<'a> Prepared<'a> {
+    fn new(image: &'a Image, mask: &[bool]) -> Prepared<'a> {
+        Prepared {
+            image,
+            srgb: crate::render::to_srgb8(image),
+            itp: compare::itp_masked(&image.pixels, mask),
+        }
+    }
+}
+
+/// [`errors`] against a prepared reference (the same numbers).
+fn errors_against(
+    reference: &Prepared,
+    test: &Image,
+    mask: &[bool],
+) -> (Summary, Vec<f32>, Summary, f64) {
     let flip = compare::flip(
-        &crate::render::to_srgb8(reference),
+        &reference.srgb,
         &crate::render::to_srgb8(test),
-        reference.width,
-        reference.height,
+        reference.image.width,
+        reference.image.height,
     );
-    let de = compare::delta_e_itp_masked(&reference.pixels, &test.pixels, mask);
+    let de =
+        compare::delta_e_itp_against(&reference.image.pixels, &reference.itp, &test.pixels, mask);
     let f = compare::summarise(&flip, mask, FLIP_LEVEL);
     let d = compare::summarise(&de, mask, 1.0);
     (
         f,
         flip,
         d,
-        compare::rmse(&reference.pixels, &test.pixels, mask),
+        compare::rmse(&reference.image.pixels, &test.pixels, mask),
     )
 }
 
@@ -628,8 +656,8 @@ struct Judged {
 }
 
 impl Judged {
-    fn new(reference: &Image, image: Image, mask: &[bool], usable: bool) -> Judged {
-        let (flip, map, delta_e, rmse) = errors(reference, &image, mask);
+    fn new(reference: &Prepared, image: Image, mask: &[bool], usable: bool) -> Judged {
+        let (flip, map, delta_e, rmse) = errors_against(reference, &image, mask);
         Judged {
             image,
             flip,
@@ -698,12 +726,41 @@ pub fn choose(
     opts: &ChooseOptions,
     progress: &(dyn Fn(&str) + Sync),
 ) -> Result<(ChooseResult, Vec<CaseImages>), crate::fit::FitError> {
+    choose_with(ds, cases, opts, &[], progress)
+}
+
+/// [`choose`] reusing fits of `ds` made already (the report's model comparison): a candidate
+/// with a fit in `fitted` (same model and distribution, the default options, verified with at
+/// least `opts.verify` starts, one channel) takes it as its global fit instead of fitting
+/// again; the others are fitted. A fit with more starts is the same fit (the first
+/// `opts.verify` starts are the same seeded starts) under a stricter certificate.
+pub fn choose_with(
+    ds: &Dataset,
+    cases: &[Case],
+    opts: &ChooseOptions,
+    fitted: &[FitResult],
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<(ChooseResult, Vec<CaseImages>), crate::fit::FitError> {
     // Global fits: the comparison the report already makes, and the fill of empty cells.
     // The candidates in parallel (each fit is deterministic, so the order of work is free).
+    let reuse = |kind: ModelKind, dist: Distribution| {
+        fitted.iter().find(|f| {
+            let default = FitOptions::new(kind);
+            (f.model, f.dist) == (kind, dist)
+                && (f.loss, f.method) == (default.loss, default.method)
+                && f.params.len() == kind.params(dist).len()
+                && f.verification
+                    .as_ref()
+                    .map_or(opts.verify == 0, |v| v.starts >= opts.verify)
+        })
+    };
     let global = opts
         .candidates
         .par_iter()
-        .map(|&(kind, dist)| fit_one(ds, kind, dist, opts.verify))
+        .map(|&(kind, dist)| match reuse(kind, dist) {
+            Some(f) => Ok(f.clone()),
+            None => fit_one(ds, kind, dist, opts.verify),
+        })
         .collect::<Result<Vec<_>, _>>()?;
     let reference = Reference::new(ds, &global);
     let r = &reference;
@@ -720,13 +777,13 @@ pub fn choose(
         r.folds.len(),
         r.fold_seconds
     ));
-    let mut results = Vec::new();
-    let mut images = Vec::new();
-    for case in cases {
-        let (result, imgs) = run_case(case, r, &global, opts, progress)?;
-        results.push(result);
-        images.push(imgs);
-    }
+    // The cases in parallel too, so one case's last slow candidate does not leave a core idle
+    // (each case is deterministic; the results in case order).
+    let done = cases
+        .par_iter()
+        .map(|case| run_case(case, r, &global, opts, progress))
+        .collect::<Result<Vec<_>, _>>()?;
+    let (results, images): (Vec<CaseResult>, Vec<CaseImages>) = done.into_iter().unzip();
     Ok((
         ChooseResult {
             threshold: ThresholdJson {
@@ -872,92 +929,35 @@ fn run_case(
         100.0 * measured_share,
         reference_seconds
     ));
-    // The reference's own error: each cross-validation fold rendered against it.
-    let (reference_error, reference_error_map, worst) =
-        verdict::cross_validate(&case.scene, &ref_img, &reference.folds, &mask, &|t| {
-            material(reference.fill, Some(t))
-        });
+    let prepared = Prepared::new(&ref_img, &mask);
+    // The reference's own error (each cross-validation fold rendered against it) beside the
+    // candidates: both deterministic, so the order of work is free.
+    let (cross, done) = rayon::join(
+        || {
+            let cross =
+                verdict::cross_validate(&case.scene, &ref_img, &reference.folds, &mask, &|t| {
+                    material(reference.fill, Some(t))
+                });
+            let (p99, mean) = cross
+                .0
+                .as_ref()
+                .map_or((0.0, 0.0), |e| (e.flip_p99, e.flip_mean));
+            progress(&format!(
+                "{}: the reference's own error (cross-validation, {} folds): ꟻLIP p99 {p99:.3}, mean {mean:.4}",
+                case.name,
+                reference.folds.len()
+            ));
+            cross
+        },
+        || candidates(case, &samples, &prepared, &mask, global, opts, progress),
+    );
+    let (reference_error, reference_error_map, worst) = cross;
     let (err_p99, err_mean) = reference_error
         .as_ref()
         .map_or((0.0, 0.0), |e| (e.flip_p99, e.flip_mean));
-    progress(&format!(
-        "{}: the reference's own error (cross-validation, {} folds): ꟻLIP p99 {err_p99:.3}, mean {err_mean:.4}",
-        case.name,
-        reference.folds.len()
-    ));
     let mut rows = Vec::new();
     let mut renders = vec![(reference.name(), ref_img.clone())];
     let mut flip_maps = Vec::new();
-    // Each candidate's fit, renders and judgement in parallel (every step is deterministic);
-    // each progress line as its candidate finishes (so a bar moves), the rows in candidate
-    // order.
-    let done: Vec<Result<Candidate, crate::fit::FitError>> = opts
-        .candidates
-        .par_iter()
-        .enumerate()
-        .map(|(k, &(kind, dist))| {
-            let t = Instant::now();
-            // Nothing lit: the global fit stands in (every model renders black there).
-            let fitted = if samples.is_empty() {
-                global[k].clone()
-            } else {
-                // The log-loss fit is only the refit's start: unverified (the refit is).
-                let log_fit = fit_one(&samples, kind, dist, 0)?;
-                let g = global[k].model_for(0);
-                refit_on_pixels(&samples, log_fit, &g, exposure(&case.scene), opts.verify)
-            };
-            let fit_seconds = t.elapsed().as_secs_f64();
-            let (img, render_seconds) =
-                render_with(&case.scene, material(fitted.model_for(0), None));
-            let (global_img, _) = render_with(&case.scene, material(global[k].model_for(0), None));
-            let scene_fit = Judged::new(&ref_img, img, &mask, fitted.usable());
-            let global_fit = Judged::new(&ref_img, global_img, &mask, global[k].usable());
-            let scene_p99 = scene_fit.flip.p99;
-            let global_p99 = global_fit.flip.p99;
-            let used = used_fit(&scene_fit, &global_fit, opts.threshold.metric);
-            let judged = match used {
-                FitUsed::SceneWeighted => scene_fit,
-                FitUsed::Global => global_fit,
-            };
-            let name = model_name(kind, dist);
-            let line = format!(
-                "{}: {name}: ꟻLIP p99 {scene_p99:.3} scene-weighted fit{}, {global_p99:.3} global \
-                 fit{}; the {} fit judged",
-                case.name,
-                if fitted.usable() { "" } else { " (not usable)" },
-                if global[k].usable() {
-                    ""
-                } else {
-                    " (not usable)"
-                },
-                used.name()
-            );
-            let row = ModelRow {
-                model: name.clone(),
-                distribution: dist,
-                used,
-                params: fitted.params.clone(),
-                global_params: global[k].params.clone(),
-                bic: global[k].bic,
-                flip_mean: compare::summarise(&judged.map, &[], FLIP_LEVEL).mean,
-                flip_p99: judged.flip.p99,
-                flip_above: judged.flip.above,
-                delta_e_itp_mean: judged.delta_e.mean,
-                delta_e_itp_p99: judged.delta_e.p99,
-                rmse: judged.rmse,
-                scene_flip_p99: scene_p99,
-                global_flip_p99: global_p99,
-                fit_seconds,
-                render_seconds,
-                rays: judged.image.total_rays(),
-                usable: judged.usable,
-                unusable: fitted.unusable.clone(),
-                global_unusable: global[k].unusable.clone(),
-            };
-            progress(&line);
-            Ok((row, judged.image, judged.map))
-        })
-        .collect();
     for d in done {
         let (row, image, map) = d?;
         renders.push((row.model.clone(), image));
@@ -1012,6 +1012,91 @@ fn run_case(
     ))
 }
 
+/// Each candidate's fit, renders and judgement against the prepared reference, in parallel
+/// (every step is deterministic); each progress line as its candidate finishes (so a bar
+/// moves), the rows in candidate order.
+fn candidates(
+    case: &Case,
+    samples: &Dataset,
+    prepared: &Prepared,
+    mask: &[bool],
+    global: &[FitResult],
+    opts: &ChooseOptions,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Vec<Result<Candidate, crate::fit::FitError>> {
+    let base = case.scene.materials[0].clone();
+    let material = |model: Model| crate::render::Material {
+        model,
+        measured: None,
+        ..base.clone()
+    };
+    opts.candidates
+        .par_iter()
+        .enumerate()
+        .map(|(k, &(kind, dist))| {
+            let t = Instant::now();
+            // Nothing lit: the global fit stands in (every model renders black there).
+            let fitted = if samples.is_empty() {
+                global[k].clone()
+            } else {
+                // The log-loss fit is only the refit's start: unverified (the refit is).
+                let log_fit = fit_one(samples, kind, dist, 0)?;
+                let g = global[k].model_for(0);
+                refit_on_pixels(samples, log_fit, &g, exposure(&case.scene), opts.verify)
+            };
+            let fit_seconds = t.elapsed().as_secs_f64();
+            let (img, render_seconds) = render_with(&case.scene, material(fitted.model_for(0)));
+            let (global_img, _) = render_with(&case.scene, material(global[k].model_for(0)));
+            let scene_fit = Judged::new(prepared, img, mask, fitted.usable());
+            let global_fit = Judged::new(prepared, global_img, mask, global[k].usable());
+            let scene_p99 = scene_fit.flip.p99;
+            let global_p99 = global_fit.flip.p99;
+            let used = used_fit(&scene_fit, &global_fit, opts.threshold.metric);
+            let judged = match used {
+                FitUsed::SceneWeighted => scene_fit,
+                FitUsed::Global => global_fit,
+            };
+            let name = model_name(kind, dist);
+            let line = format!(
+                "{}: {name}: ꟻLIP p99 {scene_p99:.3} scene-weighted fit{}, {global_p99:.3} global \
+                 fit{}; the {} fit judged",
+                case.name,
+                if fitted.usable() { "" } else { " (not usable)" },
+                if global[k].usable() {
+                    ""
+                } else {
+                    " (not usable)"
+                },
+                used.name()
+            );
+            let row = ModelRow {
+                model: name.clone(),
+                distribution: dist,
+                used,
+                params: fitted.params.clone(),
+                global_params: global[k].params.clone(),
+                bic: global[k].bic,
+                flip_mean: compare::summarise(&judged.map, &[], FLIP_LEVEL).mean,
+                flip_p99: judged.flip.p99,
+                flip_above: judged.flip.above,
+                delta_e_itp_mean: judged.delta_e.mean,
+                delta_e_itp_p99: judged.delta_e.p99,
+                rmse: judged.rmse,
+                scene_flip_p99: scene_p99,
+                global_flip_p99: global_p99,
+                fit_seconds,
+                render_seconds,
+                rays: judged.image.total_rays(),
+                usable: judged.usable,
+                unusable: fitted.unusable.clone(),
+                global_unusable: global[k].unusable.clone(),
+            };
+            progress(&line);
+            Ok((row, judged.image, judged.map))
+        })
+        .collect()
+}
+
 /// Write each case's renders (`DIR/<case>/measured.{exr,png}` and `DIR/<case>/<model>.{exr,png}`,
 /// one exposure), its contact sheet (`sheet.png`) and chart (`chart.{svg,png}`), then
 /// `DIR/choose.json` and `DIR/choose.md`; returns the paths written, in order.
@@ -1025,10 +1110,19 @@ pub fn write(
     for (case, imgs) in result.cases.iter().zip(images) {
         let sub = dir.join(&case.case);
         crate::output::create_dir(&sub)?;
-        for (k, (name, img)) in imgs.renders.iter().enumerate() {
-            let base = sub.join(if k == 0 { "measured" } else { name.as_str() });
-            wrote.extend(crate::render::save(img, &base)?);
-        }
+        // The renders' PNG and EXR encodings in parallel; the paths in render order.
+        let saved = imgs
+            .renders
+            .par_iter()
+            .enumerate()
+            .map(|(k, (name, img))| {
+                crate::render::save(
+                    img,
+                    &sub.join(if k == 0 { "measured" } else { name.as_str() }),
+                )
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        wrote.extend(saved.into_iter().flatten());
         if case.verdict == Verdict::Undetermined {
             let path = sub.join("reference-error.png");
             write_bytes_atomic(&path, &reference_error_png(imgs, &result.threshold)?)?;

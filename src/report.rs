@@ -11,6 +11,7 @@ use crate::model::{Model, ModelKind};
 use crate::output::write_bytes_atomic;
 use crate::{plot, render, study};
 use anyhow::{Context, Result};
+use rayon::prelude::*;
 use serde_json::{Value, json};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -322,7 +323,7 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
             &format!("{name}: what each scene needs"),
         );
         let t = Instant::now();
-        let needs = scene_needs(&mut doc, &set)?;
+        let needs = scene_needs(&mut doc, &set, &fits)?;
         summary.push(summary_row(&set, &channel_note, &fits, rec, &needs));
         tm.insert("choose".into(), json!(t.elapsed().as_secs_f64()));
         stage(opts, fi, files.len(), 5, &format!("{name}: studies"));
@@ -462,8 +463,9 @@ fn model_comparison(
     tm: &mut serde_json::Map<String, Value>,
 ) -> Result<(Vec<FitResult>, usize, Option<String>)> {
     let (ds, name) = (&set.ds, &set.name);
+    // Every model in parallel (each fit is deterministic, so the order of work is free).
     let fits: Vec<FitResult> = fit::all_models()
-        .into_iter()
+        .into_par_iter()
         .map(|(k, d)| {
             let mut o = FitOptions::new(k);
             o.dist = d;
@@ -737,14 +739,15 @@ fn renders(doc: &mut Doc, set: &DataSet, ts: &FitResult) -> Result<()> {
 }
 
 /// What each scene needs: `brdfit choose` on Blinn's Figure 7 cases at 512², its sheet and
-/// chart per case.
-fn scene_needs(doc: &mut Doc, set: &DataSet) -> Result<Vec<String>> {
+/// chart per case; the model comparison's `fits` are its global fits.
+fn scene_needs(doc: &mut Doc, set: &DataSet, fits: &[FitResult]) -> Result<Vec<String>> {
     let (name, root, dir) = (&set.name, set.root, &set.name);
     doc.h(3, "What each scene needs", &format!("{name}-choose"));
-    let (r, images) = crate::choose::choose(
+    let (r, images) = crate::choose::choose_with(
         &set.ds,
         &crate::choose::fig7_cases(CHOOSE_RES),
         &crate::choose::ChooseOptions::default(),
+        fits,
         &|m| {
             if set.opts.progress.is_some() {
                 step(set, 4, m)

@@ -44,12 +44,9 @@ pub(super) enum Lane {
 }
 
 impl Lane {
-    /// The kernel for `model` under `loss`, if any (the pixel loss, Phong's fast power and
-    /// Lambert take the row path).
-    pub(super) fn of(model: &Model, loss: Loss) -> Option<Lane> {
-        if loss == Loss::Pixel {
-            return None;
-        }
+    /// The kernel for `model` under `loss`, if any (Phong's fast power and Lambert take the
+    /// row path).
+    pub(super) fn of(model: &Model, _loss: Loss) -> Option<Lane> {
         match model.kind {
             ModelKind::Phong if model.fast_pow.is_none() => Some(Lane::Phong),
             ModelKind::BlinnPhong => Some(Lane::BlinnPhong),
@@ -76,11 +73,12 @@ pub(super) fn rows_normal(
     let (lane, loss, rob) = how;
     let plain = rob == Robust::None;
     match (loss, plain) {
-        (Loss::Log, true) => body::<true, true, false>(lane, rob, rows, range, model, g, gr),
-        (Loss::Linear, true) => body::<false, true, false>(lane, rob, rows, range, model, g, gr),
-        (Loss::Log, false) => body::<true, true, true>(lane, rob, rows, range, model, g, gr),
-        (Loss::Linear, false) => body::<false, true, true>(lane, rob, rows, range, model, g, gr),
-        (Loss::Pixel, _) => unreachable!("Lane::of gives the pixel loss no lane kernel"),
+        (Loss::Log, true) => body::<LOG, true, false>(lane, rob, rows, range, model, g, gr),
+        (Loss::Linear, true) => body::<LINEAR, true, false>(lane, rob, rows, range, model, g, gr),
+        (Loss::Pixel, true) => body::<PIXEL, true, false>(lane, rob, rows, range, model, g, gr),
+        (Loss::Log, false) => body::<LOG, true, true>(lane, rob, rows, range, model, g, gr),
+        (Loss::Linear, false) => body::<LINEAR, true, true>(lane, rob, rows, range, model, g, gr),
+        (Loss::Pixel, false) => body::<PIXEL, true, true>(lane, rob, rows, range, model, g, gr),
     }
 }
 
@@ -98,21 +96,30 @@ pub(super) fn rows_cost(
     let (g, gr) = (&mut g, &mut gr);
     let plain = rob == Robust::None;
     match (loss, plain) {
-        (Loss::Log, true) => body::<true, false, false>(lane, rob, rows, range, model, g, gr),
-        (Loss::Linear, true) => body::<false, false, false>(lane, rob, rows, range, model, g, gr),
-        (Loss::Log, false) => body::<true, false, true>(lane, rob, rows, range, model, g, gr),
-        (Loss::Linear, false) => body::<false, false, true>(lane, rob, rows, range, model, g, gr),
-        (Loss::Pixel, _) => unreachable!("Lane::of gives the pixel loss no lane kernel"),
+        (Loss::Log, true) => body::<LOG, false, false>(lane, rob, rows, range, model, g, gr),
+        (Loss::Linear, true) => body::<LINEAR, false, false>(lane, rob, rows, range, model, g, gr),
+        (Loss::Pixel, true) => body::<PIXEL, false, false>(lane, rob, rows, range, model, g, gr),
+        (Loss::Log, false) => body::<LOG, false, true>(lane, rob, rows, range, model, g, gr),
+        (Loss::Linear, false) => body::<LINEAR, false, true>(lane, rob, rows, range, model, g, gr),
+        (Loss::Pixel, false) => body::<PIXEL, false, true>(lane, rob, rows, range, model, g, gr),
     }
 }
 
-/// The residual's options of a block: the loss (`LOG`), whether the Jacobian is wanted
+/// [`Res`]'s loss: the log loss.
+const LOG: u8 = 0;
+/// [`Res`]'s loss: the linear loss.
+const LINEAR: u8 = 1;
+/// [`Res`]'s loss: the pixel loss ([`Loss::Pixel`]).
+const PIXEL: u8 = 2;
+
+/// The residual's options of a block: the loss (`LOSS`: [`LOG`], [`LINEAR`] or [`PIXEL`]),
+/// whether the Jacobian is wanted
 /// (`JAC`), whether a robust weight applies (`ROB`, with `rob`).
 #[derive(Clone, Copy)]
-struct Res<const LOG: bool, const JAC: bool, const ROB: bool>(Robust);
+struct Res<const LOSS: u8, const JAC: bool, const ROB: bool>(Robust);
 
 #[inline(always)]
-fn body<const LOG: bool, const JAC: bool, const ROB: bool>(
+fn body<const LOSS: u8, const JAC: bool, const ROB: bool>(
     lane: Lane,
     rob: Robust,
     rows: &Rows,
@@ -122,7 +129,7 @@ fn body<const LOG: bool, const JAC: bool, const ROB: bool>(
     gr: &mut [f64; MAX_PARAMS],
 ) -> f64 {
     let p = model.p;
-    let res = Res::<LOG, JAC, ROB>(rob);
+    let res = Res::<LOSS, JAC, ROB>(rob);
     match lane {
         Lane::Phong | Lane::BlinnPhong => {
             let x = if lane == Lane::Phong {
@@ -259,10 +266,11 @@ pub(super) fn finish<const N: usize>(
     lane_sum(0)
 }
 
-impl<const LOG: bool, const JAC: bool, const ROB: bool> Res<LOG, JAC, ROB> {
+impl<const LOSS: u8, const JAC: bool, const ROB: bool> Res<LOSS, JAC, ROB> {
     /// Residuals and Jacobian rows of one block from y = cosθi f_r and dy/dθ: the log loss
     /// r = ln(1 + y) − target, dr/dθ = (dy/dθ)/(1 + y); the linear loss r = y/cosθi − target,
-    /// dr/dθ = (dy/dθ)/cosθi; ρ(r) of the robust loss, if any.
+    /// dr/dθ = (dy/dθ)/cosθi; the pixel loss r = φ(y) − target, dr/dθ = φ'(y) dy/dθ
+    /// ([`pixel_lanes`]); ρ(r) of the robust loss, if any.
     #[inline(always)]
     fn add<const N: usize>(
         self,
@@ -273,8 +281,10 @@ impl<const LOG: bool, const JAC: bool, const ROB: bool> Res<LOG, JAC, ROB> {
         sw: &[f64; LANES],
         acc: &mut Acc,
     ) {
-        let (fy, scale) = if LOG {
+        let (fy, scale) = if LOSS == LOG {
             lanes::ln_1p(y)
+        } else if LOSS == PIXEL {
+            pixel_lanes(y)
         } else {
             let inl: [f64; LANES] = std::array::from_fn(|l| 1.0 / nl[l]);
             (std::array::from_fn(|l| y[l] * inl[l]), inl)
@@ -300,12 +310,52 @@ impl<const LOG: bool, const JAC: bool, const ROB: bool> Res<LOG, JAC, ROB> {
     }
 }
 
+/// The display value φ(y) of each lane and its derivative φ'(y): [`super::pixel`] without
+/// branches. The smooth clip c = y − δ ln(1 + e^(−t)), c' = 1/(1 + e^(−t)) for t = (1 − y)/δ > 0,
+/// else c = 1 − δ ln(1 + e^t), c' = e^t/(1 + e^t), both from e^(−|t|); then the sRGB transfer
+/// (IEC 61966-2-1) 12.92 c up to 0.0031308, else 1.055 c^(1/2.4) − 0.055 with c^(1/2.4) =
+/// e^(ln c / 2.4).
+#[inline(always)]
+fn pixel_lanes(y: &[f64; LANES]) -> ([f64; LANES], [f64; LANES]) {
+    const D: f64 = super::PIXEL_CLIP_WIDTH;
+    const KNEE: f64 = 0.003_130_8;
+    let t: [f64; LANES] = std::array::from_fn(|l| (1.0 - y[l]) / D);
+    let e = lanes::exp(&std::array::from_fn(|l| -t[l].abs()));
+    let (l1p, inv) = lanes::ln_1p(&e);
+    let mut c = [0.0f64; LANES];
+    let mut dc = [0.0f64; LANES];
+    for l in 0..LANES {
+        let pos = t[l] > 0.0;
+        c[l] = if pos { y[l] } else { 1.0 } - D * l1p[l];
+        dc[l] = if pos { inv[l] } else { e[l] * inv[l] };
+    }
+    let cs: [f64; LANES] = std::array::from_fn(|l| if c[l] > KNEE { c[l] } else { 1.0 });
+    let lc = lanes::ln(&cs);
+    let p = lanes::exp(&std::array::from_fn(|l| lc[l] / 2.4));
+    let mut v = [0.0f64; LANES];
+    let mut dv = [0.0f64; LANES];
+    for l in 0..LANES {
+        let lin = c[l] <= KNEE;
+        v[l] = if lin {
+            12.92 * c[l]
+        } else {
+            1.055 * p[l] - 0.055
+        };
+        dv[l] = if lin {
+            12.92 * dc[l]
+        } else {
+            1.055 / 2.4 * p[l] / cs[l] * dc[l]
+        };
+    }
+    (v, dv)
+}
+
 /// One block of Phong or Blinn–Phong (c1, ps, pd): columns nl, x (R·E or N·H), target.
 /// y = cosθi f_r = (pd cosθi + ps x^c1)/π with x^c1 = e^(c1 ln x) (0 where x ≤ 0), as in
 /// `model::phong::brdf_grad`.
-struct PhongBlock<const LOG: bool, const JAC: bool, const ROB: bool>([f64; 3], Res<LOG, JAC, ROB>);
+struct PhongBlock<const LOSS: u8, const JAC: bool, const ROB: bool>([f64; 3], Res<LOSS, JAC, ROB>);
 
-impl<const LOG: bool, const JAC: bool, const ROB: bool> Block for PhongBlock<LOG, JAC, ROB> {
+impl<const LOSS: u8, const JAC: bool, const ROB: bool> Block for PhongBlock<LOSS, JAC, ROB> {
     #[inline(always)]
     fn run(&self, c: &[[f64; LANES]; 5], sw: &[f64; LANES], acc: &mut Acc) {
         let [nl, x, tg, _, _] = c;
@@ -397,9 +447,9 @@ pub(super) fn ggx_lobe_values(alpha: f64, rows: &Rows, range: std::ops::Range<us
 /// One block of GGX–Smith: columns nl, ne, nh, eh, target. y = cosθi f_r =
 /// pd cosθi/π + ps F D G1(L) G1(E)/(4 N·E), zero specular where N·H ≤ 0 or E·H ≤ 0, as in
 /// `model::ggx_smith::brdf_grad`.
-struct GgxBlock<const LOG: bool, const JAC: bool, const ROB: bool>(Ggx, Res<LOG, JAC, ROB>);
+struct GgxBlock<const LOSS: u8, const JAC: bool, const ROB: bool>(Ggx, Res<LOSS, JAC, ROB>);
 
-impl<const LOG: bool, const JAC: bool, const ROB: bool> Block for GgxBlock<LOG, JAC, ROB> {
+impl<const LOSS: u8, const JAC: bool, const ROB: bool> Block for GgxBlock<LOSS, JAC, ROB> {
     #[inline(always)]
     fn run(&self, c: &[[f64; LANES]; 5], sw: &[f64; LANES], acc: &mut Acc) {
         let k = &self.0;
@@ -437,9 +487,9 @@ impl<const LOG: bool, const JAC: bool, const ROB: bool> Block for GgxBlock<LOG, 
 /// [`Ggx`] with their ps, sharing n and pd): columns nl, ne, nh, eh, target. y = pd cosθi/π +
 /// F (ps1 L1 + ps2 L2), zero specular where N·H ≤ 0 or E·H ≤ 0, as in
 /// `model::ggx_smith_2::brdf_grad`.
-struct Ggx2Block<const LOG: bool, const JAC: bool, const ROB: bool>(Ggx, Ggx, Res<LOG, JAC, ROB>);
+struct Ggx2Block<const LOSS: u8, const JAC: bool, const ROB: bool>(Ggx, Ggx, Res<LOSS, JAC, ROB>);
 
-impl<const LOG: bool, const JAC: bool, const ROB: bool> Block for Ggx2Block<LOG, JAC, ROB> {
+impl<const LOSS: u8, const JAC: bool, const ROB: bool> Block for Ggx2Block<LOSS, JAC, ROB> {
     #[inline(always)]
     fn run(&self, c: &[[f64; LANES]; 5], sw: &[f64; LANES], acc: &mut Acc) {
         let (k1, k2) = (&self.0, &self.1);
@@ -473,13 +523,13 @@ impl<const LOG: bool, const JAC: bool, const ROB: bool> Block for Ggx2Block<LOG,
 /// y = cosθi f_r = pd cosθi/π + ps D F G/(π N·E), as in `model::torrance_sparrow::brdf_grad`
 /// with [`Distribution::eval_dc`]: D1 = (N·H)^c1 = e^(c1 ln N·H) (0 where N·H ≤ 0),
 /// D2 = e^(−(θh c2)²), D3 as [`TsD3`].
-struct TsBlock<const D: u8, const LOG: bool, const JAC: bool, const ROB: bool>(
+struct TsBlock<const D: u8, const LOSS: u8, const JAC: bool, const ROB: bool>(
     [f64; MAX_PARAMS],
-    Res<LOG, JAC, ROB>,
+    Res<LOSS, JAC, ROB>,
 );
 
-impl<const D: u8, const LOG: bool, const JAC: bool, const ROB: bool> Block
-    for TsBlock<D, LOG, JAC, ROB>
+impl<const D: u8, const LOSS: u8, const JAC: bool, const ROB: bool> Block
+    for TsBlock<D, LOSS, JAC, ROB>
 {
     #[inline(always)]
     fn run(&self, c: &[[f64; LANES]; 5], sw: &[f64; LANES], acc: &mut Acc) {
@@ -544,12 +594,12 @@ impl<const D: u8, const LOG: bool, const JAC: bool, const ROB: bool> Block
 /// One block of Torrance–Sparrow with Löw et al.'s ABC lobe D = (1 + b (1 − N·H))^(−c):
 /// parameters n, b, c, ps, pd; columns nl, N·H, eh, G/N·E, target; ∂D/∂b = −c (1 − N·H) D/u,
 /// ∂D/∂c = −ln(u) D, u = 1 + b (1 − N·H), as in `model::torrance_sparrow::abc_brdf_grad`.
-struct AbcBlock<const LOG: bool, const JAC: bool, const ROB: bool>(
+struct AbcBlock<const LOSS: u8, const JAC: bool, const ROB: bool>(
     [f64; MAX_PARAMS],
-    Res<LOG, JAC, ROB>,
+    Res<LOSS, JAC, ROB>,
 );
 
-impl<const LOG: bool, const JAC: bool, const ROB: bool> Block for AbcBlock<LOG, JAC, ROB> {
+impl<const LOSS: u8, const JAC: bool, const ROB: bool> Block for AbcBlock<LOSS, JAC, ROB> {
     #[inline(always)]
     fn run(&self, c: &[[f64; LANES]; 5], sw: &[f64; LANES], acc: &mut Acc) {
         let p = &self.0;
@@ -700,8 +750,8 @@ mod tests {
 
     /// Each lane kernel gives the cost and normal equations of the row-by-row path through
     /// `Model::brdf_grad` (an independent code path: library `powf`, `exp`, `acos`, `ln_1p`, the
-    /// model's own Fresnel, D and G, the robust ρ and weight) to 1e-11 relative, for both
-    /// losses, without and with a robust weight (Huber, Cauchy at a threshold some residuals
+    /// model's own Fresnel, D and G, the robust ρ and weight) to 1e-11 relative, for the three
+    /// losses (log, linear, pixel: targets up to 3, across the pixel's knee and clip), without and with a robust weight (Huber, Cauchy at a threshold some residuals
     /// pass), weighted rows or not, for any row count (a tail shorter than a block included),
     /// sharp and broad lobes, every model with a kernel.
     #[test]
@@ -720,7 +770,7 @@ mod tests {
         ];
         let mut robust_hits = 0;
         for (kind, dist) in models {
-            for loss in [Loss::Log, Loss::Linear] {
+            for loss in [Loss::Log, Loss::Linear, Loss::Pixel] {
                 for (case, weighted) in [(0, false), (1, true), (2, false), (3, true)] {
                     let m = [1, 7, 8, 1003][case];
                     let rows = random_rows(&mut rng, m, weighted, loss);
@@ -779,6 +829,36 @@ mod tests {
         assert!(robust_hits > 100, "{robust_hits}");
     }
 
+    /// The lanes' display value and derivative against the row path's `pixel` (library `exp`,
+    /// `ln_1p`, `powf`) to 1e-13 relative at radiances from 0 through the sRGB knee (0.0031308)
+    /// and the clip at 1 to 1e300, where both give 1 and a derivative of 0.
+    #[test]
+    fn pixel_lanes_match_pixel() {
+        let mut ys: Vec<f64> = vec![0.0, 1e-300, 1e-12, 0.003_130_8, 0.003_130_9, 1.0, 1e300];
+        ys.extend((0..4000).map(|k| 10f64.powf(-6.0 + 8.0 * k as f64 / 4000.0)));
+        ys.extend((0..400).map(|k| 0.9 + 0.2 * k as f64 / 400.0));
+        for chunk in ys.chunks(LANES) {
+            let y: [f64; LANES] = std::array::from_fn(|l| chunk[l.min(chunk.len() - 1)]);
+            let (v, d) = pixel_lanes(&y);
+            for l in 0..chunk.len() {
+                let (want, dwant) = super::super::pixel(y[l]);
+                let tol = |w: f64| 1e-13 * w.abs() + 1e-300;
+                assert!(
+                    (v[l] - want).abs() <= tol(want),
+                    "φ({}) {} vs {want}",
+                    y[l],
+                    v[l]
+                );
+                assert!(
+                    (d[l] - dwant).abs() <= tol(dwant),
+                    "φ'({}) {} vs {dwant}",
+                    y[l],
+                    d[l]
+                );
+            }
+        }
+    }
+
     /// The kernel of Torrance–Sparrow D2 reads θh from the rows' cached column; rows pushed
     /// after it was computed get theirs (the cache is rebuilt).
     #[test]
@@ -794,13 +874,13 @@ mod tests {
         }
     }
 
-    /// Phong's fast power, the pixel loss and Lambert keep the row path; robust weights and
+    /// Phong's fast power and Lambert keep the row path; the pixel loss, robust weights and
     /// every Torrance–Sparrow distribution have kernels.
     #[test]
     fn kernels_apply_where_they_compute_the_same() {
         let phong = Model::new(ModelKind::Phong, Distribution::D3, &[10.0, 1.0, 0.1]).unwrap();
         assert_eq!(Lane::of(&phong, Loss::Log), Some(Lane::Phong));
-        assert_eq!(Lane::of(&phong, Loss::Pixel), None);
+        assert_eq!(Lane::of(&phong, Loss::Pixel), Some(Lane::Phong));
         let mut fast = phong;
         fast.fast_pow = Some(3);
         assert_eq!(Lane::of(&fast, Loss::Log), None);

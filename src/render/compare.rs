@@ -15,10 +15,67 @@ pub const PIXELS_PER_DEGREE: f32 = nv_flip::DEFAULT_PIXELS_PER_DEGREE;
 pub const DISPLAY_WHITE_NITS: f64 = 100.0;
 
 /// Per-pixel LDR-ꟻLIP error in [0, 1] between two 8-bit sRGB images (RGB, row-major).
+///
+/// Computed on the smallest window that holds every pixel where the images differ, widened by
+/// twice [`flip_reach`] (clipped to the image), and 0 elsewhere: the same numbers as the whole
+/// image gives, at the cost of the window (an edge-lit crescent is a small part of its image).
+/// NVIDIA's ꟻLIP filters separably with clamp-to-edge borders, summing each kernel in a fixed
+/// order, so a pixel within the reach of a difference reads only pixels inside the window
+/// (or the image's own border, clamped alike); a pixel beyond it sees equal neighbourhoods in
+/// both images, equal filtered values, a colour and a feature difference of 0, and ꟻLIP 0^1 = 0.
 pub fn flip(reference: &[u8], test: &[u8], width: u32, height: u32) -> Vec<f32> {
+    let (w, h) = (width as usize, height as usize);
+    let mut window: Option<[usize; 4]> = None;
+    for y in 0..h {
+        for x in 0..w {
+            let i = 3 * (y * w + x);
+            if reference[i..i + 3] != test[i..i + 3] {
+                let b = window.get_or_insert([x, y, x, y]);
+                *b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
+            }
+        }
+    }
+    let Some([x0, y0, x1, y1]) = window else {
+        return vec![0.0; w * h];
+    };
+    let m = 2 * flip_reach(PIXELS_PER_DEGREE);
+    let (x0, y0) = (x0.saturating_sub(m), y0.saturating_sub(m));
+    let (x1, y1) = ((x1 + m).min(w - 1), (y1 + m).min(h - 1));
+    let (cw, ch) = (x1 + 1 - x0, y1 + 1 - y0);
+    if (cw, ch) == (w, h) {
+        return flip_whole(reference, test, width, height);
+    }
+    let crop = |img: &[u8]| -> Vec<u8> {
+        (y0..=y1)
+            .flat_map(|y| img[3 * (y * w + x0)..3 * (y * w + x1 + 1)].iter().copied())
+            .collect()
+    };
+    let part = flip_whole(&crop(reference), &crop(test), cw as u32, ch as u32);
+    let mut map = vec![0.0f32; w * h];
+    for (k, row) in part.chunks_exact(cw).enumerate() {
+        let o = (y0 + k) * w + x0;
+        map[o..o + cw].copy_from_slice(row);
+    }
+    map
+}
+
+/// LDR-ꟻLIP of two whole images through NVIDIA's implementation.
+fn flip_whole(reference: &[u8], test: &[u8], width: u32, height: u32) -> Vec<f32> {
     let r = nv_flip::FlipImageRgb8::with_data(width, height, reference);
     let t = nv_flip::FlipImageRgb8::with_data(width, height, test);
     nv_flip::flip(r, t, PIXELS_PER_DEGREE).to_vec()
+}
+
+/// How far (pixels) ꟻLIP's filters reach at `ppd` pixels per degree, one more than the larger
+/// of NVIDIA's two radii: the colour filter's ⌈3 √(b_max / 2π²) ppd⌉ with the largest scale
+/// parameter b_max = 0.04 (Andersson et al. 2020, Table 1), the feature filter's ⌈3 · ½ w ppd⌉
+/// with w = 0.082 (10 and 9 at the default ≈ 67).
+pub fn flip_reach(ppd: f32) -> usize {
+    let ppd = f64::from(ppd);
+    let pi2 = std::f64::consts::PI * std::f64::consts::PI;
+    let colour = (3.0 * (0.04 / (2.0 * pi2)).sqrt() * ppd).ceil();
+    let feature = (3.0 * 0.5 * 0.082 * ppd).ceil();
+    colour.max(feature) as usize + 1
 }
 
 /// SMPTE ST 2084 (PQ) inverse EOTF of an absolute luminance in cd/m², as BT.2100 gives it.
@@ -51,7 +108,11 @@ pub fn itp(rgb709: [f64; 3]) -> [f64; 3] {
 
 /// ΔE_ITP = 720 √(ΔI² + ΔT² + ΔP²) (BT.2124) between two linear BT.709 colours.
 pub fn delta_e_itp(a: [f64; 3], b: [f64; 3]) -> f64 {
-    let (p, q) = (itp(a), itp(b));
+    itp_distance(itp(a), itp(b))
+}
+
+/// 720 √(ΔI² + ΔT² + ΔP²) between two (I, T, P) (BT.2124).
+fn itp_distance(p: [f64; 3], q: [f64; 3]) -> f64 {
     720.0 * ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
 }
 
@@ -63,13 +124,41 @@ pub fn delta_e_itp_map(reference: &[[f32; 3]], test: &[[f32; 3]]) -> Vec<f32> {
 /// [`delta_e_itp_map`] where `mask` is true (0 elsewhere; every pixel when `mask` is empty):
 /// what [`summarise`] over the same mask reads, at the cost of the masked pixels alone.
 pub fn delta_e_itp_masked(reference: &[[f32; 3]], test: &[[f32; 3]], mask: &[bool]) -> Vec<f32> {
+    delta_e_itp_against(reference, &itp_masked(reference, mask), test, mask)
+}
+
+/// [`itp`] of each pixel of a linear BT.709 image where `mask` is true (every pixel when it
+/// is empty; zeros elsewhere): a reference's side of [`delta_e_itp_against`], computed once.
+pub fn itp_masked(image: &[[f32; 3]], mask: &[bool]) -> Vec<[f64; 3]> {
+    image
+        .iter()
+        .enumerate()
+        .map(|(i, a)| {
+            if mask.is_empty() || mask[i] {
+                itp(a.map(f64::from))
+            } else {
+                [0.0; 3]
+            }
+        })
+        .collect()
+}
+
+/// [`delta_e_itp_masked`] with the reference's ITP given (`reference_itp` from [`itp_masked`]
+/// over the same mask): the same numbers; a pixel equal in both images is 0 without its ITP.
+pub fn delta_e_itp_against(
+    reference: &[[f32; 3]],
+    reference_itp: &[[f64; 3]],
+    test: &[[f32; 3]],
+    mask: &[bool],
+) -> Vec<f32> {
     reference
         .iter()
+        .zip(reference_itp)
         .zip(test)
         .enumerate()
-        .map(|(i, (a, b))| {
-            if mask.is_empty() || mask[i] {
-                delta_e_itp(a.map(f64::from), b.map(f64::from)) as f32
+        .map(|(i, ((a, p), b))| {
+            if (mask.is_empty() || mask[i]) && a != b {
+                itp_distance(*p, itp(b.map(f64::from))) as f32
             } else {
                 0.0
             }
@@ -90,14 +179,23 @@ pub struct Summary {
 }
 
 /// [`Summary`] of an error map over a mask.
+///
+/// The values are summed in ascending order; the zeros (most of an error map outside the
+/// object) are counted, not sorted: adding 0 changes no sum, so the mean is the same number.
 pub fn summarise(map: &[f32], mask: &[bool], level: f64) -> Summary {
-    let mut v: Vec<f64> = map
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| mask.is_empty() || mask[*i])
-        .map(|(_, &e)| e as f64)
-        .collect();
-    if v.is_empty() {
+    let mut zeros = 0usize;
+    let mut v: Vec<f64> = Vec::new();
+    for (i, &e) in map.iter().enumerate() {
+        if mask.is_empty() || mask[i] {
+            if e == 0.0 {
+                zeros += 1;
+            } else {
+                v.push(e as f64);
+            }
+        }
+    }
+    let n = v.len() + zeros;
+    if n == 0 {
         return Summary {
             mean: 0.0,
             p99: 0.0,
@@ -105,11 +203,20 @@ pub fn summarise(map: &[f32], mask: &[bool], level: f64) -> Summary {
         };
     }
     v.sort_by(f64::total_cmp);
-    let n = v.len();
+    // In the whole ascending order the zeros stand after the negative values.
+    let negative = v.partition_point(|&e| e < 0.0);
+    let at = |k: usize| match k {
+        k if k < negative => v[k],
+        k if k < negative + zeros => 0.0,
+        k => v[k - zeros],
+    };
     let rank = ((0.99 * n as f64).ceil() as usize).clamp(1, n);
+    // A sum starts at −0; one that adds a zero is +0 where it ends at zero (+0 leaves every
+    // other sum as it is).
+    let sum = v.iter().sum::<f64>() + if zeros > 0 { 0.0 } else { -0.0 };
     Summary {
-        mean: v.iter().sum::<f64>() / n as f64,
-        p99: v[rank - 1],
+        mean: sum / n as f64,
+        p99: at(rank - 1),
         above: v.iter().filter(|&&e| e > level).count() as f64 / n as f64,
     }
 }
@@ -149,6 +256,118 @@ mod tests {
         // Symmetric.
         let (a, b) = ([0.2, 0.5, 0.1], [0.25, 0.4, 0.3]);
         assert_eq!(delta_e_itp(a, b), delta_e_itp(b, a));
+    }
+
+    /// Random 8-bit images of `w`×`h`: `test` equals `reference` (itself random, not a
+    /// constant background) except in the pixels `patch` (x0, y0, x1, y1, inclusive).
+    fn images(w: usize, h: usize, patch: [usize; 4], seed: u64) -> (Vec<u8>, Vec<u8>) {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let reference: Vec<u8> = (0..3 * w * h).map(|_| rng.random()).collect();
+        let mut test = reference.clone();
+        for y in patch[1]..=patch[3] {
+            for x in patch[0]..=patch[2] {
+                for c in 0..3 {
+                    test[3 * (y * w + x) + c] = rng.random();
+                }
+            }
+        }
+        (reference, test)
+    }
+
+    /// The windowed ꟻLIP gives the very numbers of NVIDIA's whole-image computation (the peer):
+    /// a difference in the middle, at a corner and at an edge of a textured image, a single
+    /// pixel, and identical images (all 0).
+    #[test]
+    fn windowed_flip_equals_whole_image_flip() {
+        let (w, h) = (150usize, 120usize);
+        for (k, patch) in [
+            [60, 50, 80, 65],
+            [0, 0, 4, 3],
+            [140, 30, 149, 40],
+            [75, 60, 75, 60],
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let (r, t) = images(w, h, patch, k as u64);
+            let whole = flip_whole(&r, &t, w as u32, h as u32);
+            assert!(whole.iter().any(|&e| e > 0.0));
+            assert_eq!(flip(&r, &t, w as u32, h as u32), whole, "patch {patch:?}");
+        }
+        let (r, _) = images(w, h, [0, 0, 0, 0], 9);
+        assert_eq!(
+            flip(&r, &r, w as u32, h as u32),
+            flip_whole(&r, &r, w as u32, h as u32)
+        );
+        // NVIDIA's radii at the default 67.02 pixels per degree are 10 and 9.
+        assert_eq!(flip_reach(PIXELS_PER_DEGREE), 11);
+    }
+
+    /// ΔE_ITP against a reference's precomputed ITP is, pixel for pixel, `delta_e_itp` of
+    /// the two colours (0 where equal and outside the mask).
+    #[test]
+    fn delta_e_against_a_precomputed_reference() {
+        let reference = [
+            [0.2f32, 0.5, 0.1],
+            [0.9, 0.9, 0.9],
+            [0.0, 0.0, 0.0],
+            [1.5, 0.3, 0.7],
+        ];
+        let test = [
+            [0.25f32, 0.4, 0.3],
+            [0.9, 0.9, 0.9],
+            [0.5, 0.5, 0.5],
+            [0.1, 0.2, 0.3],
+        ];
+        let mask = [true, true, true, false];
+        let got = delta_e_itp_masked(&reference, &test, &mask);
+        for i in 0..4 {
+            let want = if mask[i] {
+                delta_e_itp(reference[i].map(f64::from), test[i].map(f64::from)) as f32
+            } else {
+                0.0
+            };
+            assert_eq!(got[i], want, "{i}");
+        }
+        assert!(got[0] > 1.0 && got[1] == 0.0 && got[2] > 1.0);
+    }
+
+    /// Mostly zeros (an error map outside the object), with a few negative, positive and
+    /// NaN values: the summary of a plain sort (the peer, written out here) to the bit.
+    #[test]
+    fn summary_of_mostly_zeros_equals_the_sorted_summary() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        for n in [1usize, 2, 50, 101, 1000, 5000] {
+            let map: Vec<f32> = (0..n)
+                .map(|_| match rng.random_range(0..10) {
+                    0 => -rng.random::<f32>(),
+                    1 | 2 => rng.random::<f32>(),
+                    3 if n > 100 => f32::NAN,
+                    _ => 0.0,
+                })
+                .collect();
+            let mask: Vec<bool> = (0..n).map(|_| rng.random_range(0..4) > 0).collect();
+            for m in [&mask[..], &[][..]] {
+                let mut v: Vec<f64> = (0..n)
+                    .filter(|&i| m.is_empty() || m[i])
+                    .map(|i| map[i] as f64)
+                    .collect();
+                v.sort_by(f64::total_cmp);
+                let got = summarise(&map, m, 0.5);
+                if v.is_empty() {
+                    assert_eq!(got.p99, 0.0);
+                    continue;
+                }
+                let rank = ((0.99 * v.len() as f64).ceil() as usize).clamp(1, v.len());
+                let mean = v.iter().sum::<f64>() / v.len() as f64;
+                let above = v.iter().filter(|&&e| e > 0.5).count() as f64 / v.len() as f64;
+                assert_eq!(got.p99.to_bits(), v[rank - 1].to_bits(), "n {n}");
+                assert_eq!(got.mean.to_bits(), mean.to_bits(), "n {n}");
+                assert_eq!(got.above, above);
+            }
+        }
     }
 
     #[test]
