@@ -104,10 +104,8 @@ pub enum Weighting {
     /// The file's weights column, or every sample 1 (default).
     #[default]
     File,
-    /// The file's weights times each sample's solid angle on the data's own grid
-    /// ([`solid_angle_weights`]), so that the loss approximates an integral over the
-    /// configurations (θi, θo, |φo − φi|) rather than a sum over however densely each region
-    /// was sampled.
+    /// The file's weights times each sample's solid angle on the data's own grid (see
+    /// solid_angle_weights): the loss approximates an integral over (θi, θo, |φo − φi|).
     SolidAngle,
 }
 
