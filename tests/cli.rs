@@ -1655,3 +1655,77 @@ fn a_failed_fit_writes_no_file() {
     assert!(!err.contains("wrote"), "{err}");
     assert!(!json.exists() && !sum.exists());
 }
+
+/// `fit --weights solid-angle` is the same fit as `--weights file` on a copy of the data whose
+/// `weight` column holds those weights (a second path through the loader), and differs from
+/// the unweighted fit; the weights themselves are checked by hand in tests/truth.rs.
+#[test]
+fn fit_solid_angle_weights_equal_a_weight_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("grid.csv");
+    let o = brdfit(&[
+        "simulate",
+        "--model",
+        "torrance-sparrow",
+        "--set",
+        "n=1.5,c3=0.2,ps=0.5,pd=0.3",
+        "--grid",
+        "goniometer",
+        "--noise",
+        "0.05",
+        "--seed",
+        "3",
+        "-o",
+        data.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let ds = brdfit::data::load(&data, &brdfit::data::LoadOptions::default()).unwrap();
+    let w = brdfit::fit::solid_angle_weights(&ds);
+    let text = std::fs::read_to_string(&data).unwrap();
+    let mut out = String::new();
+    let mut k = 0;
+    for line in text.lines() {
+        if line.starts_with('#') {
+            out += line;
+        } else if line.starts_with("theta") {
+            out += &format!("{line},weight");
+        } else {
+            out += &format!("{line},{}", w[k]);
+            k += 1;
+        }
+        out.push('\n');
+    }
+    assert_eq!(k, w.len());
+    let weighted = dir.path().join("weighted.csv");
+    std::fs::write(&weighted, out).unwrap();
+    let n = |file: &Path, how: &str| {
+        let json = dir.path().join(format!("{how}.json"));
+        let o = brdfit(&[
+            "fit",
+            file.to_str().unwrap(),
+            "--weights",
+            how,
+            "--json",
+            json.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(
+            String::from_utf8_lossy(&o.stderr).contains(&format!("wrote {}", json.display())),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        v["params"]["n"].as_f64().unwrap()
+    };
+    let (solid, column, plain) = (
+        n(&data, "solid-angle"),
+        n(&weighted, "file"),
+        n(&data, "file"),
+    );
+    assert!(
+        (solid - column).abs() < 1e-6 * column,
+        "{solid} vs {column}"
+    );
+    assert!((solid - plain).abs() > 1e-4 * plain, "{solid} vs {plain}");
+}

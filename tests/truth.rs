@@ -7,7 +7,8 @@
 //! solid angle with θi, θo ≤ 80°; half near the mirror, θh log-uniform in 0.01°–30°, φh, φd
 //! uniform, θd uniform in 0°–80°, kept where θi, θo ≤ 80°. Error: the RMSE over the set of
 //! ln(1 + f cosθi) − ln(1 + f_truth cosθi). `cargo test --release --test truth -- --nocapture`
-//! prints every model's error on the whole set and on its uniform half for the 8 materials.
+//! prints every model's error on the whole set and on its uniform half for the 8 materials,
+//! with the default weights and with `--weights solid-angle`.
 
 mod common;
 
@@ -15,6 +16,7 @@ use common::sphere;
 
 use brdfit::data::nbrdf::Nbrdf;
 use brdfit::data::{Dataset, Quantity};
+use brdfit::fit::Weighting;
 use brdfit::model::{Geometry, fresnel, geometric_attenuation};
 use brdfit::{FitOptions, fit};
 use rand::{Rng, SeedableRng};
@@ -118,9 +120,14 @@ struct Fitted {
     e_abc: (f64, f64),
     /// The usable fit with the lowest BIC.
     best: Option<usize>,
+    /// The best fit's Σr²/n over the uniform half, split by θh: < 5°, 5–20°, ≥ 20°.
+    parts: [f64; 3],
+    /// The same for the published ABC fit.
+    parts_abc: [f64; 3],
 }
 
-fn fitted(name: &str, set: &[([f64; 4], bool)]) -> Fitted {
+/// The network of `name` and its goniometer samples (green) as a data set.
+fn training(name: &str) -> (Nbrdf, Dataset) {
     let weights = common::root().join("tests/data/nbrdf/weights-merl8.json");
     let grid = brdfit::simulate::Grid::Goniometer.directions(0);
     let net = Nbrdf::load(&weights, &format!("merl/{name}")).unwrap();
@@ -129,6 +136,11 @@ fn fitted(name: &str, set: &[([f64; 4], bool)]) -> Fitted {
     for k in 0..rgb.len() {
         ds.push(rgb.angles(k), &[rgb.channels[1].values[k]]);
     }
+    (net, ds)
+}
+
+fn fitted(name: &str, set: &[([f64; 4], bool)], weights: Weighting) -> Fitted {
+    let (net, ds) = training(name);
     let truth: Vec<f64> = set.iter().map(|(a, _)| net.eval_symmetric(*a)[1]).collect();
     let fits: Vec<_> = brdfit::model::catalogue()
         .into_iter()
@@ -136,6 +148,7 @@ fn fitted(name: &str, set: &[([f64; 4], bool)]) -> Fitted {
             let mut o = FitOptions::new(kind);
             o.dist = dist;
             o.profile = false;
+            o.weights = weights;
             fit(&ds, &o).unwrap().remove(0)
         })
         .collect();
@@ -157,33 +170,65 @@ fn fitted(name: &str, set: &[([f64; 4], bool)]) -> Fitted {
         errors,
         e_abc,
         best,
+        parts: [0.0; 3],
+        parts_abc: [0.0; 3],
+    }
+    .with_parts(set, &truth, name)
+}
+
+impl Fitted {
+    /// The uniform half's Σr²/n split by θh (< 5°, 5–20°, ≥ 20°), for the best fit and ABC.
+    fn with_parts(mut self, set: &[([f64; 4], bool)], truth: &[f64], name: &str) -> Self {
+        let parts = |f: &dyn Fn(&Geometry) -> f64| {
+            let (mut acc, mut n) = ([0.0; 3], 0.0);
+            for ((a, uniform), t) in set.iter().zip(truth) {
+                if !*uniform {
+                    continue;
+                }
+                n += 1.0;
+                let g = Geometry::from_angles(a[0], a[1], a[2], a[3]);
+                let c = a[0].cos();
+                let r = (1.0 + f(&g) * c).ln() - (1.0 + t * c).ln();
+                let th = g.nh.clamp(-1.0, 1.0).acos().to_degrees();
+                acc[usize::from(th >= 5.0) + usize::from(th >= 20.0)] += r * r;
+            }
+            acc.map(|x| x / n)
+        };
+        if let Some(i) = self.best {
+            let m = self.fits[i].model_for(0);
+            self.parts = parts(&|g| m.brdf(g));
+        }
+        let published = abc(name);
+        self.parts_abc = parts(&|g| published.brdf(g));
+        self
     }
 }
 
-/// On at least two of the 8 materials, brdfit's best usable model (lowest BIC among the usable
-/// fits) has a log error on the independent test set no higher than the published ABC fit's.
-#[test]
-fn best_usable_model_against_published_abc() {
-    let set = test_set(22);
+/// One weighting's table: every model's errors, the best usable model's and ABC's, and where
+/// on the uniform half each loses (Σr²/n by θh). Returns the wins (whole set, uniform half).
+fn table(set: &[([f64; 4], bool)], weights: Weighting) -> (usize, usize) {
     let (mut wins, mut wins_uniform) = (0, 0);
+    println!("weights: {weights:?}");
     println!(
-        "| material | best usable (BIC) | its error, all / uniform | ABC 2012, all / uniform | every model: all / uniform |"
+        "| material | best usable (BIC) | its error, all / uniform | ABC 2012, all / uniform | uniform Σr²/n ×1e5 by θh <5° / 5–20° / ≥20°: best; ABC | every model: all / uniform |"
     );
-    println!("|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|");
     for name in MATERIALS {
         let Fitted {
             fits,
             errors,
             e_abc,
             best,
+            parts,
+            parts_abc,
             ..
-        } = fitted(name, &set);
+        } = fitted(name, set, weights);
         let every: Vec<String> = fits
             .iter()
             .zip(&errors)
             .map(|(f, e)| {
                 format!(
-                    "{}{} {:.3}/{:.3}",
+                    "{}{} {:.4}/{:.4}",
                     f.model.label(f.dist),
                     if f.usable() { "" } else { " (not usable)" },
                     e.0,
@@ -195,12 +240,15 @@ fn best_usable_model_against_published_abc() {
             Some(i) => (fits[i].model.label(fits[i].dist), errors[i]),
             None => ("none".into(), (f64::INFINITY, f64::INFINITY)),
         };
+        let p = |x: [f64; 3]| format!("{:.1} / {:.1} / {:.1}", x[0] * 1e5, x[1] * 1e5, x[2] * 1e5);
         println!(
-            "| {name} | {label} | {:.3} / {:.3} | {:.3} / {:.3} | {} |",
+            "| {name} | {label} | {:.4} / {:.4} | {:.4} / {:.4} | {}; {} | {} |",
             e_best.0,
             e_best.1,
             e_abc.0,
             e_abc.1,
+            p(parts),
+            p(parts_abc),
             every.join("; ")
         );
         if e_best.0 <= e_abc.0 {
@@ -211,12 +259,102 @@ fn best_usable_model_against_published_abc() {
         }
     }
     println!(
-        "best usable model at or below ABC: {wins} of 8 on the whole set, {wins_uniform} of 8 on the uniform half"
+        "best usable model at or below ABC ({weights:?} weights): {wins} of 8 on the whole set, {wins_uniform} of 8 on the uniform half"
+    );
+    (wins, wins_uniform)
+}
+
+/// brdfit's best usable model (lowest BIC among the usable fits) against the published ABC fit
+/// on the independent test set, by default and with `--weights solid-angle`. Measured here:
+/// by default 6 of 8 on the whole set and 3 of 8 on the uniform half; solid-angle weights
+/// 6 and 4 (aluminium, silver-paint and white-diffuse-bball gain on the uniform half;
+/// blue-acrylic, chrome and the whole set of most materials lose).
+#[test]
+fn best_usable_model_against_published_abc() {
+    let set = test_set(22);
+    let (wins, wins_uniform) = table(&set, Weighting::File);
+    let (sa, sa_uniform) = table(&set, Weighting::SolidAngle);
+    assert!(
+        wins >= 6 && wins_uniform >= 3,
+        "default weights: brdfit's best usable model at or below ABC on {wins} of 8 (whole set) and {wins_uniform} of 8 (uniform half); measured 6 and 3"
     );
     assert!(
-        wins >= 2,
-        "brdfit's best usable model beats ABC on {wins} of 8"
+        sa >= 6 && sa_uniform >= 4,
+        "solid-angle weights: at or below ABC on {sa} of 8 (whole set) and {sa_uniform} of 8 (uniform half); measured 6 and 4"
     );
+}
+
+/// Chrome's loss is not the fitter's and not a bound's: the TS-abc fit's b is far inside its
+/// bounds and pinned by the training samples (holding it at ½× or 2× and refitting the rest
+/// costs at least 10 % more), and on the near-mirror half it loses to ABC only at θh < 0.5°,
+/// where fewer than 1 in 1000 training samples lie (θh = 0 in the plane of incidence): Σr²/n
+/// by θh (< 0.5°, 0.5–5°, ≥ 5°) for the fit and for ABC.
+#[test]
+fn chrome_highlight_is_pinned_but_unresolved() {
+    let set = test_set(22);
+    let (net, ds) = training("chrome");
+    let truth: Vec<f64> = set.iter().map(|(a, _)| net.eval_symmetric(*a)[1]).collect();
+    let mut o = FitOptions::new(brdfit::ModelKind::TorranceSparrow);
+    o.dist = brdfit::model::Distribution::Abc;
+    o.profile = false;
+    let free = fit(&ds, &o).unwrap().remove(0);
+    let b = free.get("b").unwrap();
+    assert!(b > 1e3 && b < 1e8, "b = {b} sits near a bound (1e-3, 1e9)");
+    for mult in [0.5, 2.0] {
+        let mut held = o.clone();
+        held.fix = vec![("b".into(), b * mult)];
+        let f = fit(&ds, &held).unwrap().remove(0);
+        println!("b × {mult}: cost {:.3} against {:.3}", f.cost, free.cost);
+        assert!(
+            f.cost > 1.1 * free.cost,
+            "b × {mult}: cost {} against {}",
+            f.cost,
+            free.cost
+        );
+    }
+    let m = free.model_for(0);
+    let published = abc("chrome");
+    let bins = |f: &dyn Fn(&Geometry) -> f64| {
+        let (mut acc, mut n) = ([0.0; 3], 0.0);
+        for ((a, uniform), t) in set.iter().zip(&truth) {
+            if *uniform {
+                continue;
+            }
+            n += 1.0;
+            let g = Geometry::from_angles(a[0], a[1], a[2], a[3]);
+            let c = a[0].cos();
+            let r = (1.0 + f(&g) * c).ln() - (1.0 + t * c).ln();
+            let th = g.nh.clamp(-1.0, 1.0).acos().to_degrees();
+            acc[usize::from(th >= 0.5) + usize::from(th >= 5.0)] += r * r;
+        }
+        acc.map(|x| x / n)
+    };
+    let (ours, theirs) = (bins(&|g| m.brdf(g)), bins(&|g| published.brdf(g)));
+    let train = (0..ds.len())
+        .map(|k| {
+            let a = ds.angles(k);
+            Geometry::from_angles(a[0], a[1], a[2], a[3])
+                .nh
+                .clamp(-1.0, 1.0)
+                .acos()
+                .to_degrees()
+        })
+        .fold([0usize; 3], |mut n, th| {
+            n[usize::from(th >= 0.5) + usize::from(th >= 5.0)] += 1;
+            n
+        });
+    println!(
+        "chrome near-mirror half, Σr²/n by θh < 0.5° / 0.5–5° / ≥ 5°: TS-abc {:.4} / {:.4} / {:.4}; ABC {:.4} / {:.4} / {:.4}; training samples {} / {} / {}",
+        ours[0], ours[1], ours[2], theirs[0], theirs[1], theirs[2], train[0], train[1], train[2]
+    );
+    // The loss lies inside 0.5° of the mirror, where the grid has next to no samples; outside
+    // it the fit is at least as close as ABC.
+    assert!(ours[0] > theirs[0], "{ours:?} {theirs:?}");
+    assert!(
+        ours[1] <= theirs[1] && ours[2] <= theirs[2] + 1e-4,
+        "{ours:?} {theirs:?}"
+    );
+    assert!(train[0] * 1000 < ds.len(), "{train:?}");
 }
 
 /// Figure 7 in the image: ꟻLIP p99 over the sphere (front lit 15°, edge lit 95°, 512², the
@@ -232,7 +370,7 @@ fn figure7_flip_of_the_best_model_against_the_network() {
     );
     println!("|---|---|---|---|");
     for name in MATERIALS {
-        let f = fitted(name, &set);
+        let f = fitted(name, &set, Weighting::File);
         let Some(best) = f.best else {
             println!("| {name} | none | | |");
             continue;
@@ -259,4 +397,42 @@ fn figure7_flip_of_the_best_model_against_the_network() {
             cells[1]
         );
     }
+}
+
+/// `fit --weights solid-angle`: on a small grid (θi 20°, 40°; θo 0°, 30°, 60°; φo 0°, 90°,
+/// 180°, 270°, φi 0), worked by hand. Cells: θi 10–30°, 30–50°; θo 0–15°, 15–45°, 45–75°;
+/// |Δφ| folded into 0–180° is 0, 90, 180, 90: cells 0–45°, 45–135° (shared by the two 90°
+/// samples) and 135–180°, π/4 each. Scaled to mean 1: w = 6 Δcosθi Δcosθo /
+/// ((cos 10° − cos 50°)(1 − cos 75°)).
+#[test]
+fn solid_angle_weights_by_hand() {
+    let c = |d: f64| d.to_radians().cos();
+    let mut ds = Dataset::new(Quantity::Brdf, vec![("g".into(), None)]);
+    let mut want = Vec::new();
+    for (ti, dci) in [(20.0, c(10.0) - c(30.0)), (40.0, c(30.0) - c(50.0))] {
+        for (to, dco) in [
+            (0.0, 1.0 - c(15.0)),
+            (30.0, c(15.0) - c(45.0)),
+            (60.0, c(45.0) - c(75.0)),
+        ] {
+            for po in [0.0, 90.0, 180.0, 270.0f64] {
+                ds.push(
+                    [
+                        f64::to_radians(ti),
+                        0.0,
+                        f64::to_radians(to),
+                        po.to_radians(),
+                    ],
+                    &[0.1],
+                );
+                want.push(6.0 * dci * dco / ((c(10.0) - c(50.0)) * (1.0 - c(75.0))));
+            }
+        }
+    }
+    let w = brdfit::fit::solid_angle_weights(&ds);
+    for (k, (a, b)) in w.iter().zip(&want).enumerate() {
+        assert!((a - b).abs() < 1e-12 * b, "sample {k}: {a} against {b}");
+    }
+    // The pole's cell (θo 0–15°) is about a fifteenth of the 45–75° ring's.
+    assert!(w[0] < 0.1 * w[8], "{} {}", w[0], w[8]);
 }

@@ -67,6 +67,11 @@ pub(crate) struct FitArgs {
     /// Drop samples with θi or θo beyond this angle (degrees).
     #[arg(long, value_name = "DEG")]
     pub(crate) max_theta: Option<f64>,
+    /// Each sample's weight in the loss: file (the file's weights column, or 1) or solid-angle
+    /// (that times the solid angle of the sample's cell on the data's own grid, so that a
+    /// goniometer's dense θo axis and its samples near the pole do not outweigh the rest).
+    #[arg(long, value_enum, default_value = "file")]
+    pub(crate) weights: brdfit::fit::Weighting,
     /// Hold parameters fixed, NAME=VALUE (repeat or separate with commas).
     #[arg(long, value_delimiter = ',')]
     pub(crate) fix: Vec<String>,

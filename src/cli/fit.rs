@@ -229,6 +229,7 @@ pub(crate) fn fit_one(
         o.loss = loss;
         o.robust = robust;
         o.max_theta_deg = a.max_theta;
+        o.weights = a.weights;
         // With --model all, parameters a model lacks are skipped for that model.
         let names = kind.param_names(*dist);
         let keep = |v: &Vec<(String, f64)>| -> Vec<(String, f64)> {

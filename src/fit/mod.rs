@@ -54,6 +54,7 @@ use checks::certify;
 pub use format::{
     all_models, format_channels, format_fit, format_ranking, format_ranking_line, rank,
 };
+pub use setup::solid_angle_weights;
 use setup::{ChannelRows, channel_rows, check_data, layout, problem};
 pub use solve::random_start;
 use solve::search;
@@ -97,6 +98,17 @@ pub enum RobustKind {
     Cauchy,
 }
 
+/// How each sample is weighted in the loss.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Weighting {
+    /// The file's weights column, or every sample 1 (default).
+    #[default]
+    File,
+    /// The file's weights times each sample's solid angle on the data's own grid (see
+    /// solid_angle_weights): the loss approximates an integral over (θi, θo, |φo − φi|).
+    SolidAngle,
+}
+
 /// Options of a fit; [`FitOptions::new`] gives the defaults.
 #[derive(Clone, Debug)]
 pub struct FitOptions {
@@ -113,6 +125,8 @@ pub struct FitOptions {
     pub robust: Option<RobustKind>,
     /// Drop samples with θi or θo beyond this (degrees).
     pub max_theta_deg: Option<f64>,
+    /// Each sample's weight in the loss (default: the file's weights column, if any).
+    pub weights: Weighting,
     /// Parameters held fixed.
     pub fix: Vec<(String, f64)>,
     /// A start point (one more candidate; the only one with `local_only`).
@@ -144,6 +158,7 @@ impl FitOptions {
             loss: Loss::Log,
             robust: None,
             max_theta_deg: None,
+            weights: Weighting::File,
             fix: vec![],
             start: vec![],
             shared: vec![],

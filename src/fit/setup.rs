@@ -16,13 +16,13 @@ pub(super) struct ChannelRows {
 pub(super) fn channel_rows(ds: &Dataset, c: usize, opts: &FitOptions) -> ChannelRows {
     let vals = &ds.channels[c].values;
     let max = opts.max_theta_deg.map(f64::to_radians);
-    let weighted = ds
-        .weights
+    let weights = sample_weights(ds, opts.weights);
+    let weighted = weights
         .as_ref()
         .is_some_and(|w| w.iter().any(|&v| v != 1.0));
     // Geometry of every sample, in parallel over fixed chunks joined in sample order.
     let rows = Rows::par_fill(ds.len(), weighted, |range, cols| {
-        fill_rows(ds, vals, max, opts.loss, range, cols)
+        fill_rows(ds, vals, weights.as_deref(), max, opts.loss, range, cols)
     });
     // ln(1 + 0) = 0 and f = 0: a zero target is a zero value under either loss.
     let all_zero = rows.target.iter().all(|&t| t == 0.0);
@@ -36,6 +36,112 @@ pub(super) fn channel_rows(ds: &Dataset, c: usize, opts: &FitOptions) -> Channel
     }
 }
 
+/// Each sample's weight in the loss under `how`: the file's weights column (`None`: every
+/// sample 1), or with [`Weighting::SolidAngle`] that times [`solid_angle_weights`].
+pub(super) fn sample_weights(ds: &Dataset, how: Weighting) -> Option<Vec<f64>> {
+    match how {
+        Weighting::File => ds.weights.clone(),
+        Weighting::SolidAngle => {
+            let mut w = solid_angle_weights(ds);
+            if let Some(file) = &ds.weights {
+                for (a, b) in w.iter_mut().zip(file) {
+                    *a *= b;
+                }
+            }
+            Some(w)
+        }
+    }
+}
+
+/// The quadrature weight of each sample of a grid: the measure of its cell in
+/// (cosθi, cosθo, |φo − φi|), i.e. the solid angle sinθi sinθo dθi dθo dφ the sample stands
+/// for, scaled to a mean of 1. Computed from the data's own spacing, nested: the cell of a θi
+/// runs halfway to the neighbouring θi values of the data (at the ends, half a step out, within
+/// 0–90°; a lone value spans 0–90°), the cell of a θo likewise among the θo values at that θi,
+/// and the cell of |φo − φi| (folded into 0–180°, where an isotropic model cannot tell ±φ
+/// apart) among the values at that (θi, θo), within 0–180°. Samples at the same (θi, θo,
+/// |Δφ|) (to 0.01°) share their cell. Meant for goniometer grids, whose dense θo axis and
+/// samples near the pole (θo = 0 at every φ) would otherwise outweigh the rest of the
+/// hemisphere; for scattered samples each θi is its own cell and the weight reduces to the
+/// spacing in θi.
+pub fn solid_angle_weights(ds: &Dataset) -> Vec<f64> {
+    use std::collections::BTreeMap;
+    use std::f64::consts::PI;
+    let n = ds.len();
+    // Keys: the angles in hundredths of a degree (the tables print 68° as 67.9998).
+    let key = |x: f64| (x.to_degrees() * 100.0).round() as i64;
+    let fold = |d: f64| {
+        let d = d.rem_euclid(std::f64::consts::TAU);
+        if d > PI { std::f64::consts::TAU - d } else { d }
+    };
+    let keys: Vec<[i64; 3]> = (0..n)
+        .map(|k| {
+            let a = ds.angles(k);
+            [key(a[0]), key(a[2]), key(fold(a[3] - a[1]))]
+        })
+        .collect();
+    // Each distinct value's cell measure among `values` (sorted, distinct keys) within
+    // [0, hi] (degrees × 100), measured by `m(lower, upper)` in radians.
+    let cells = |values: &[i64], hi: f64, m: &dyn Fn(f64, f64) -> f64| -> Vec<f64> {
+        let v: Vec<f64> = values.iter().map(|&x| x as f64 / 100.0).collect();
+        let rad = |d: f64| d.clamp(0.0, hi).to_radians();
+        (0..v.len())
+            .map(|j| {
+                if v.len() == 1 {
+                    return m(0.0, hi.to_radians());
+                }
+                let lo = if j == 0 {
+                    v[0] - 0.5 * (v[1] - v[0])
+                } else {
+                    0.5 * (v[j - 1] + v[j])
+                };
+                let up = if j + 1 == v.len() {
+                    v[j] + 0.5 * (v[j] - v[j - 1])
+                } else {
+                    0.5 * (v[j] + v[j + 1])
+                };
+                m(rad(lo), rad(up))
+            })
+            .collect()
+    };
+    let polar = |a: f64, b: f64| a.cos() - b.cos();
+    let azimuth = |a: f64, b: f64| b - a;
+    // Nested groups: θi → θo → |Δφ| → the samples there.
+    let mut tree: BTreeMap<i64, BTreeMap<i64, BTreeMap<i64, Vec<usize>>>> = BTreeMap::new();
+    for (k, [ti, to, dp]) in keys.iter().enumerate() {
+        tree.entry(*ti)
+            .or_default()
+            .entry(*to)
+            .or_default()
+            .entry(*dp)
+            .or_default()
+            .push(k);
+    }
+    let mut w = vec![0.0; n];
+    let ti_keys: Vec<i64> = tree.keys().copied().collect();
+    let wi = cells(&ti_keys, 90.0, &polar);
+    for ((_, by_to), wi) in tree.iter().zip(wi) {
+        let to_keys: Vec<i64> = by_to.keys().copied().collect();
+        let wo = cells(&to_keys, 90.0, &polar);
+        for ((_, by_dp), wo) in by_to.iter().zip(wo) {
+            let dp_keys: Vec<i64> = by_dp.keys().copied().collect();
+            let wp = cells(&dp_keys, 180.0, &azimuth);
+            for ((_, samples), wp) in by_dp.iter().zip(wp) {
+                for &k in samples {
+                    w[k] = wi * wo * wp / samples.len() as f64;
+                }
+            }
+        }
+    }
+    let mean = w.iter().sum::<f64>() / n.max(1) as f64;
+    if mean > 0.0 {
+        for x in &mut w {
+            *x /= mean;
+        }
+    }
+    w
+}
+
 /// Rows of samples `range` of channel values `vals` written to the front of `cols` (the
 /// layout of [`Rows::write`]); returns how many were kept. [`LANES`] samples at a time, so
 /// the trigonometry and logarithms vectorise; compiled for AVX-512 and AVX2 as well and picked
@@ -44,6 +150,7 @@ pub(super) fn channel_rows(ds: &Dataset, c: usize, opts: &FitOptions) -> Channel
 pub(super) fn fill_rows(
     ds: &Dataset,
     vals: &[f64],
+    weights: Option<&[f64]>,
     max: Option<f64>,
     loss: Loss,
     range: std::ops::Range<usize>,
@@ -81,7 +188,7 @@ pub(super) fn fill_rows(
         let mut col = [[0.0; LANES]; 8];
         let mut keep = [false; LANES];
         let mut w = [1.0; LANES];
-        if let Some(ws) = &ds.weights {
+        if let Some(ws) = weights {
             w[..n].copy_from_slice(&ws[k..k + n]);
         }
         let m = max.unwrap_or(f64::INFINITY);
