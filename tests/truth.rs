@@ -126,6 +126,30 @@ struct Fitted {
     parts_abc: [f64; 3],
 }
 
+/// Σr²/n of the log residual of [`log_error`] over one half of the test set (`uniform`: the
+/// uniform half, else the near-mirror half), split into three bins of θh at `edges` (degrees).
+fn loss_by_theta_h(
+    set: &[([f64; 4], bool)],
+    truth: &[f64],
+    uniform: bool,
+    edges: [f64; 2],
+    f: &dyn Fn(&Geometry) -> f64,
+) -> [f64; 3] {
+    let (mut acc, mut n) = ([0.0; 3], 0.0);
+    for ((a, u), t) in set.iter().zip(truth) {
+        if *u != uniform {
+            continue;
+        }
+        n += 1.0;
+        let g = Geometry::from_angles(a[0], a[1], a[2], a[3]);
+        let c = a[0].cos();
+        let r = (1.0 + f(&g) * c).ln() - (1.0 + t * c).ln();
+        let th = g.nh.clamp(-1.0, 1.0).acos().to_degrees();
+        acc[usize::from(th >= edges[0]) + usize::from(th >= edges[1])] += r * r;
+    }
+    acc.map(|x| x / n)
+}
+
 /// The network of `name` and its goniometer samples (green) as a data set.
 fn training(name: &str) -> (Nbrdf, Dataset) {
     let weights = common::root().join("tests/data/nbrdf/weights-merl8.json");
@@ -179,21 +203,8 @@ fn fitted(name: &str, set: &[([f64; 4], bool)], weights: Weighting) -> Fitted {
 impl Fitted {
     /// The uniform half's Σr²/n split by θh (< 5°, 5–20°, ≥ 20°), for the best fit and ABC.
     fn with_parts(mut self, set: &[([f64; 4], bool)], truth: &[f64], name: &str) -> Self {
-        let parts = |f: &dyn Fn(&Geometry) -> f64| {
-            let (mut acc, mut n) = ([0.0; 3], 0.0);
-            for ((a, uniform), t) in set.iter().zip(truth) {
-                if !*uniform {
-                    continue;
-                }
-                n += 1.0;
-                let g = Geometry::from_angles(a[0], a[1], a[2], a[3]);
-                let c = a[0].cos();
-                let r = (1.0 + f(&g) * c).ln() - (1.0 + t * c).ln();
-                let th = g.nh.clamp(-1.0, 1.0).acos().to_degrees();
-                acc[usize::from(th >= 5.0) + usize::from(th >= 20.0)] += r * r;
-            }
-            acc.map(|x| x / n)
-        };
+        let parts =
+            |f: &dyn Fn(&Geometry) -> f64| loss_by_theta_h(set, truth, true, [5.0, 20.0], f);
         if let Some(i) = self.best {
             let m = self.fits[i].model_for(0);
             self.parts = parts(&|g| m.brdf(g));
@@ -314,21 +325,7 @@ fn chrome_highlight_is_pinned_but_unresolved() {
     }
     let m = free.model_for(0);
     let published = abc("chrome");
-    let bins = |f: &dyn Fn(&Geometry) -> f64| {
-        let (mut acc, mut n) = ([0.0; 3], 0.0);
-        for ((a, uniform), t) in set.iter().zip(&truth) {
-            if *uniform {
-                continue;
-            }
-            n += 1.0;
-            let g = Geometry::from_angles(a[0], a[1], a[2], a[3]);
-            let c = a[0].cos();
-            let r = (1.0 + f(&g) * c).ln() - (1.0 + t * c).ln();
-            let th = g.nh.clamp(-1.0, 1.0).acos().to_degrees();
-            acc[usize::from(th >= 0.5) + usize::from(th >= 5.0)] += r * r;
-        }
-        acc.map(|x| x / n)
-    };
+    let bins = |f: &dyn Fn(&Geometry) -> f64| loss_by_theta_h(&set, &truth, false, [0.5, 5.0], f);
     let (ours, theirs) = (bins(&|g| m.brdf(g)), bins(&|g| published.brdf(g)));
     let train = (0..ds.len())
         .map(|k| {
