@@ -658,7 +658,9 @@ fn weight_blends_on_the_goniometer_grid() {
     let gon = goniometer();
     let blend = |beta: f64| move |sa: f64, _: f64| 1.0 - beta + beta * sa;
     let mirror = |c: f64| move |sa: f64, th: f64| sa * (1.0 + c / th.max(0.5).powi(2));
-    let probes: Vec<(String, Box<dyn Fn(f64, f64) -> f64>)> = vec![
+    // A weight from (solid-angle weight, θh in degrees).
+    type Rule = Box<dyn Fn(f64, f64) -> f64>;
+    let probes: Vec<(String, Rule)> = vec![
         ("β = 0.25".into(), Box::new(blend(0.25))),
         ("β = 0.5".into(), Box::new(blend(0.5))),
         ("β = 0.75".into(), Box::new(blend(0.75))),
