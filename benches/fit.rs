@@ -1,7 +1,8 @@
 //! Torrance–Sparrow fits of synthetic Blinn MgO data (hemisphere, 1 % noise, log loss) at
 //! 10k, 100k and 1M samples (the 1M fit also without the range profiling); and every method,
 //! brdfit's and argmin's, on the same 10k and 100k inputs (no profiling), side by side; and
-//! every model on a bundled real file and on 10k and 1M samples of its own fit.
+//! every model on a bundled real file and on 10k and 1M samples of its own fit, and all nine
+//! together as `fit --model all` runs them.
 //!
 //! Run: `cargo bench --bench fit`. The side-by-side comparison with scipy is
 //! `benches/compare_scipy.sh`.
@@ -91,6 +92,19 @@ fn models(c: &mut Criterion) {
             });
         }
     }
+    // `fit --model all` as the command runs it (ranges profiled): nine models in parallel,
+    // the geometry computed once.
+    let all: Vec<FitOptions> = fit::all_models()
+        .into_iter()
+        .map(|(kind, dist)| {
+            let mut o = FitOptions::new(kind);
+            o.dist = dist;
+            o
+        })
+        .collect();
+    g.bench_function("all/merl-alumina-oxide", |b| {
+        b.iter(|| fit::fit_models(&real, &all, 1).unwrap())
+    });
     g.finish();
 }
 

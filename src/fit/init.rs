@@ -448,10 +448,18 @@ pub(super) fn linear_cost_log_many(
     let mut i = 0;
     while i < m {
         let len = (m - i).min(LANES);
-        // Lanes past the end repeat the last row with weight 0.
-        let get = |v: &[f64]| -> [f64; LANES] { std::array::from_fn(|l| v[i + l.min(len - 1)]) };
+        // Lanes past the end repeat the last row with weight 0 (a full block: plain loads).
+        let get = |v: &[f64]| -> [f64; LANES] {
+            if len == LANES {
+                v[i..i + LANES].try_into().expect("a full block")
+            } else {
+                std::array::from_fn(|l| v[i + l.min(len - 1)])
+            }
+        };
         let w: [f64; LANES] = if sw.is_empty() && len == LANES {
             ones
+        } else if len == LANES {
+            get(sw)
         } else {
             std::array::from_fn(|l| match (l < len, sw.is_empty()) {
                 (false, _) => 0.0,

@@ -290,12 +290,17 @@ pub struct Normal {
 
 const CHUNK: usize = 4096;
 
+/// The fewest chunks run in parallel: a MERL table's 16,512 rows (five chunks) are, a 10k
+/// synthetic set or a 2,000-row subsample is not (its pass is too short to repay waking the
+/// thread pool).
+const PARALLEL_CHUNKS: usize = 4;
+
 /// `f` of every chunk of `m` residuals, in chunk order: in parallel when there are enough
 /// chunks to repay waking the thread pool, else on this thread (the same values either way).
 fn map_chunks<T: Send>(m: usize, f: impl Fn(std::ops::Range<usize>) -> T + Sync) -> Vec<T> {
     let n = m.div_ceil(CHUNK);
     let range = |c: usize| c * CHUNK..((c + 1) * CHUNK).min(m);
-    if n <= 8 {
+    if n < PARALLEL_CHUNKS {
         (0..n).map(range).map(f).collect()
     } else {
         (0..n).into_par_iter().map(|c| f(range(c))).collect()

@@ -453,6 +453,16 @@ impl FitResult {
 
 /// Fit `opts.kind` to every channel of `ds` (or jointly with `opts.shared`).
 pub fn fit(ds: &Dataset, opts: &FitOptions) -> Result<Vec<FitResult>, FitError> {
+    // Each channel's geometry pass is timed with its fit.
+    fit_with(ds, opts, |c| timed_rows(ds, c, opts))
+}
+
+/// [`fit`] with each channel's rows (and their geometry seconds) from `timed`.
+fn fit_with(
+    ds: &Dataset,
+    opts: &FitOptions,
+    timed: impl Fn(usize) -> (ChannelRows, f64),
+) -> Result<Vec<FitResult>, FitError> {
     let names = opts.kind.param_names(opts.dist);
     for (k, v) in opts.fix.iter().chain(&opts.start) {
         let Some(spec) = opts.kind.params(opts.dist).iter().find(|s| s.name == k) else {
@@ -480,12 +490,6 @@ pub fn fit(ds: &Dataset, opts: &FitOptions) -> Result<Vec<FitResult>, FitError> 
             ));
         }
     }
-    // Each channel's geometry pass is timed with its fit.
-    let timed = |c: usize| {
-        let t = Instant::now();
-        let rows = channel_rows(ds, c, opts);
-        (rows, t.elapsed().as_secs_f64())
-    };
     if opts.shared.is_empty() || ds.channels.len() == 1 {
         (0..ds.channels.len())
             .map(|c| {
@@ -500,6 +504,13 @@ pub fn fit(ds: &Dataset, opts: &FitOptions) -> Result<Vec<FitResult>, FitError> 
     }
 }
 
+/// Channel `c`'s rows for `opts` and the seconds their geometry pass took.
+fn timed_rows(ds: &Dataset, c: usize, opts: &FitOptions) -> (ChannelRows, f64) {
+    let t = Instant::now();
+    let rows = channel_rows(ds, c, opts);
+    (rows, t.elapsed().as_secs_f64())
+}
+
 /// [`fit`] run `repeat` times in this process (for benchmarks): the results of the first run
 /// with `seconds` and `geometry_seconds` each the median of its own column over the runs
 /// (every run gives the same parameters; only the clock differs).
@@ -508,25 +519,77 @@ pub fn fit_timed(
     opts: &FitOptions,
     repeat: usize,
 ) -> Result<Vec<FitResult>, FitError> {
-    let mut fits = fit(ds, opts)?;
-    let mut times: Vec<Vec<[f64; 2]>> = fits
-        .iter()
-        .map(|f| vec![[f.seconds, f.geometry_seconds]])
-        .collect();
-    for _ in 1..repeat.max(1) {
-        for (t, f) in times.iter_mut().zip(fit(ds, opts)?) {
-            t.push([f.seconds, f.geometry_seconds]);
-        }
-    }
-    let median = |t: &[[f64; 2]], k: usize| {
-        let mut v: Vec<f64> = t.iter().map(|x| x[k]).collect();
+    let runs = (0..repeat.max(1))
+        .map(|_| fit(ds, opts))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(median_times(runs))
+}
+
+/// The first of several runs of the same fits, with `seconds` and `geometry_seconds` each the
+/// median of its own column over the runs.
+fn median_times(mut runs: Vec<Vec<FitResult>>) -> Vec<FitResult> {
+    let median = |mut v: Vec<f64>| {
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
-    for (f, t) in fits.iter_mut().zip(&times) {
-        (f.seconds, f.geometry_seconds) = (median(t, 0), median(t, 1));
+    let seconds: Vec<[f64; 2]> = (0..runs[0].len())
+        .map(|i| {
+            let col = |g: fn(&FitResult) -> f64| median(runs.iter().map(|r| g(&r[i])).collect());
+            [col(|f| f.seconds), col(|f| f.geometry_seconds)]
+        })
+        .collect();
+    let mut fits = runs.swap_remove(0);
+    for (f, [s, g]) in fits.iter_mut().zip(seconds) {
+        (f.seconds, f.geometry_seconds) = (s, g);
     }
-    Ok(fits)
+    fits
+}
+
+/// Several fits of one dataset, e.g. `fit --model all`: each entry of `opts` as [`fit`] gives
+/// it (the same results), with the models fitted in parallel and each channel's geometry
+/// computed once for all the fits that share its loss, `--max-theta` and weighting (its time
+/// is counted in each fit's `geometry_seconds`). Run `repeat` times (benchmarks), it returns
+/// the first run's fits with their median times, as [`fit_timed`] does, and the median wall
+/// time of one run of them all (geometry included). The first error in `opts` order, if any.
+pub fn fit_models(
+    ds: &Dataset,
+    opts: &[FitOptions],
+    repeat: usize,
+) -> Result<(Vec<Vec<FitResult>>, f64), FitError> {
+    use rayon::prelude::*;
+    let key = |o: &FitOptions| (o.loss, o.max_theta_deg.map(f64::to_bits), o.weights);
+    let mut runs: Vec<Vec<Vec<FitResult>>> = vec![Vec::new(); opts.len()];
+    let mut walls = Vec::new();
+    for _ in 0..repeat.max(1) {
+        let t = Instant::now();
+        // Each distinct geometry once per channel: (its key, each channel's rows and time).
+        let mut shared: Vec<(_, Vec<(ChannelRows, f64)>)> = Vec::new();
+        for o in opts {
+            if !shared.iter().any(|(k, _)| *k == key(o)) {
+                let rows = (0..ds.channels.len())
+                    .map(|c| timed_rows(ds, c, o))
+                    .collect();
+                shared.push((key(o), rows));
+            }
+        }
+        let fits: Vec<Result<Vec<FitResult>, FitError>> = opts
+            .par_iter()
+            .map(|o| {
+                let (_, rows) = shared
+                    .iter()
+                    .find(|(k, _)| *k == key(o))
+                    .expect("every geometry computed above");
+                fit_with(ds, o, |c| rows[c].clone())
+            })
+            .collect();
+        walls.push(t.elapsed().as_secs_f64());
+        for (run, f) in runs.iter_mut().zip(fits) {
+            run.push(f?);
+        }
+    }
+    walls.sort_by(f64::total_cmp);
+    let fits = runs.into_iter().map(median_times).collect();
+    Ok((fits, walls[walls.len() / 2]))
 }
 
 /// One fit of one channel, or a joint fit of several, in the steps above.

@@ -2,8 +2,10 @@
 //! describes could not exist, whatever its cost.
 //!
 //! 1. **pd > 1**: the Lambertian part alone reflects more light than arrives.
-//! 2. **Directional albedo above 1** at any θi of [`ALBEDO_THETA_I_DEG`] (0°–85°), by the
-//!    quadrature of [`directional_albedo`], with a margin of [`ALBEDO_MARGIN`] for its error.
+//! 2. **Directional albedo above 1** at any θi of
+//!    [`ALBEDO_THETA_I_DEG`](crate::model::albedo::ALBEDO_THETA_I_DEG) (0°–85°), by the
+//!    quadrature of [`directional_albedo`](crate::model::albedo::directional_albedo), with a
+//!    margin of [`ALBEDO_MARGIN`] for its error.
 //! 3. **A lobe held down by F ≈ 0**: the Fresnel index is at or near its lower bound 1.0001
 //!    (n ≤ [`LOWEST_INDEX`], F0 ≤ 2.5e-5, below any solid's) and the same fit with F = 1 (the
 //!    index at its upper bound, which every real index approaches at grazing incidence) has
@@ -13,7 +15,7 @@
 //!    edge lit: Torrance–Sparrow D3 c3 0.013, n = 1.00022, ps = 3.2e6).
 
 use super::FitResult;
-use crate::model::albedo::{ALBEDO_THETA_I_DEG, directional_albedo, max_albedo};
+use crate::model::albedo::{albedos, max_albedo};
 use crate::model::{Model, Role, readable};
 
 /// Albedo above 1 by more than this marks a fit: ten times the quadrature's worst error on a
@@ -50,9 +52,8 @@ pub fn model_problems(m: &Model) -> Vec<String> {
             let mut unit = m.params().to_vec();
             unit[k] = spec.hi;
             let unit = m.with_params(&unit);
-            let (t, a) = ALBEDO_THETA_I_DEG
-                .iter()
-                .map(|&t| (t, directional_albedo(&unit, t.to_radians())))
+            let (t, a) = albedos(&unit)
+                .into_iter()
                 .fold((0.0, 0.0), |b, x| if x.1 > b.1 { x } else { b });
             if a > 1.0 + ALBEDO_MARGIN {
                 let ps = m.role(Role::Specular).unwrap_or(f64::NAN);

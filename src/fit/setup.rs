@@ -5,6 +5,7 @@
 use super::*;
 
 /// One channel's usable samples, converted to f_r.
+#[derive(Clone)]
 pub(super) struct ChannelRows {
     pub(super) name: String,
     pub(super) rows: Rows,

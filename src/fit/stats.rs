@@ -27,10 +27,9 @@ pub(super) fn uncertainty(
     let nfree = theta.len();
     let (se, corr, singular) = statistics(full, sol, theta, cost, m);
     let prof = full.subsample(1000);
-    let mut ranges = Vec::new();
-    let mut at_bound = Vec::new();
-    for k in 0..nfree {
-        let name = &lay.names[k];
+    // Each free parameter's 1 % range, the parameters in parallel (a profile is a series of
+    // refits; each range is the same on any number of threads).
+    let range_of = |k: usize| -> Option<(f64, f64)> {
         // The quadratic model of the cost gives the 1 % range in solver space,
         // Δu = (σ_θ/|dθ/du|)·√(0.01 (m − p)); where it is narrow (a factor ≤ 1.2, inside the
         // bounds) it stands, otherwise the cost is profiled for real.
@@ -44,13 +43,24 @@ pub(super) fn uncertainty(
                 (a.min(b), a.max(b))
             })
             .filter(|(a, b)| *a > 0.0 && b / a <= 1.2);
-        let range = if !opts.profile {
+        if !opts.profile {
             None
         } else if quadratic.is_some() {
             quadratic
         } else {
             profile_range(&prof, &sol.x, k, opts)
-        };
+        }
+    };
+    let all_ranges: Vec<Option<(f64, f64)>> = {
+        use rayon::prelude::*;
+        (0..nfree).into_par_iter().map(range_of).collect()
+    };
+    let mut ranges = Vec::new();
+    let mut at_bound = Vec::new();
+    for k in 0..nfree {
+        let name = &lay.names[k];
+        let range = all_ranges[k];
+        let t = full.transforms[k];
         let side = lsq::bound_side(sol.x[k], t.bounds());
         if side != 0 {
             let which = if side < 0 { "lower" } else { "upper" };

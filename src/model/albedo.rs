@@ -113,11 +113,20 @@ pub fn directional_albedo(model: &Model, theta_i: f64) -> f64 {
     2.0 * sum
 }
 
+/// The directional albedo at each θi of [`ALBEDO_THETA_I_DEG`]: (θi in degrees, ρ), in that
+/// order (the angles in parallel; each value is the same on any number of threads).
+pub fn albedos(model: &Model) -> Vec<(f64, f64)> {
+    use rayon::prelude::*;
+    ALBEDO_THETA_I_DEG
+        .par_iter()
+        .map(|&t| (t, directional_albedo(model, t.to_radians())))
+        .collect()
+}
+
 /// The largest directional albedo over [`ALBEDO_THETA_I_DEG`]: (θi in degrees, ρ).
 pub fn max_albedo(model: &Model) -> (f64, f64) {
-    ALBEDO_THETA_I_DEG
-        .iter()
-        .map(|&t| (t, directional_albedo(model, t.to_radians())))
+    albedos(model)
+        .into_iter()
         .fold((0.0, f64::NEG_INFINITY), |best, x| {
             if x.1 > best.1 || x.1.is_nan() {
                 x

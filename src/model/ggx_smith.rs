@@ -38,7 +38,7 @@ pub(super) fn params(_: Distribution) -> &'static [ParamSpec] {
 }
 
 /// G1(v) = 2/(1 + √(1 + α² tan²θv)) at cosθv = `c`, and dG1/dα.
-#[inline]
+#[inline(always)]
 fn smith_g1(alpha: f64, c: f64) -> (f64, f64) {
     let c2 = c * c;
     let tan2 = (1.0 - c2).max(0.0) / c2;
@@ -51,7 +51,7 @@ fn smith_g1(alpha: f64, c: f64) -> (f64, f64) {
 /// One normalised GGX–Smith lobe without its Fresnel factor, D(H; α) G1(L; α) G1(E; α) /
 /// (4 N·L N·E) (Walter et al. 2007, eqs. 20, 33, 34), and its derivative with respect to α;
 /// (0, 0) where N·H ≤ 0 or E·H ≤ 0. The caller makes sure N·L, N·E > 0.
-#[inline]
+#[inline(always)]
 pub(super) fn lobe(alpha: f64, g: &Geometry) -> (f64, f64) {
     let nh = g.nh;
     if nh <= 0.0 || g.eh <= 0.0 {
@@ -73,7 +73,7 @@ pub(super) fn lobe(alpha: f64, g: &Geometry) -> (f64, f64) {
 }
 
 /// f_r and its gradient with respect to (alpha, n, ps, pd).
-#[inline]
+#[inline(always)]
 pub(super) fn brdf_grad(m: &Model, g: &Geometry, grad: &mut [f64]) -> f64 {
     let (alpha, n, ps, pd) = (m.p[0], m.p[1], m.p[2], m.p[3]);
     grad[3] = FRAC_1_PI;

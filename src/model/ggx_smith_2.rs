@@ -83,7 +83,7 @@ pub(super) fn canonical(p: &mut [f64]) {
 }
 
 /// f_r and its gradient with respect to (alpha1, ps1, alpha2, ps2, n, pd).
-#[inline]
+#[inline(always)]
 pub(super) fn brdf_grad(m: &Model, g: &Geometry, grad: &mut [f64]) -> f64 {
     let p = &m.p;
     grad[PDI] = FRAC_1_PI;

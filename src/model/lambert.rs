@@ -9,7 +9,7 @@ pub(super) fn params(_: Distribution) -> &'static [ParamSpec] {
 }
 
 /// f_r = pd/π and its gradient.
-#[inline]
+#[inline(always)]
 pub(super) fn brdf_grad(m: &Model, _: &Geometry, grad: &mut [f64]) -> f64 {
     grad[0] = FRAC_1_PI;
     m.p[0] * FRAC_1_PI

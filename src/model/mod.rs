@@ -787,13 +787,22 @@ impl Model {
     #[inline]
     pub fn brdf(&self, g: &Geometry) -> f64 {
         let mut scratch = [0.0; MAX_PARAMS];
-        self.brdf_grad(g, &mut scratch)
+        self.eval(g, &mut scratch)
     }
 
     /// The BRDF and its gradient with respect to each parameter (written to `grad`, which must
     /// hold at least as many entries as the model has parameters).
     #[inline]
     pub fn brdf_grad(&self, g: &Geometry, grad: &mut [f64]) -> f64 {
+        self.eval(g, grad)
+    }
+
+    /// [`Model::brdf_grad`], inlined (with each model's formulas) into it and into
+    /// [`Model::brdf`], where the gradient is never read and the compiler drops its arithmetic
+    /// (the value is the same expression either way, so the same bits; the directional albedo
+    /// of every fit's physical check evaluates only values).
+    #[inline(always)]
+    fn eval(&self, g: &Geometry, grad: &mut [f64]) -> f64 {
         let k = self.specs().len();
         grad[..k].iter_mut().for_each(|x| *x = 0.0);
         if !g.visible() {

@@ -51,7 +51,7 @@ pub(super) fn params(_: Distribution) -> &'static [ParamSpec] {
 }
 
 /// f_r = pd/π + ps x^c1/(π N·L) with x = R·E (Phong) or N·H (Blinn–Phong), and its gradient.
-#[inline]
+#[inline(always)]
 pub(super) fn brdf_grad(m: &Model, g: &Geometry, grad: &mut [f64]) -> f64 {
     let (c1, ps, pd) = (m.p[0], m.p[1], m.p[2]);
     let x = if m.kind == ModelKind::Phong {

@@ -156,7 +156,7 @@ pub(super) fn glsl(m: &Model) -> String {
 }
 
 /// f_r = pd/π + ps D F G/(π N·L N·E) and its gradient.
-#[inline]
+#[inline(always)]
 pub(super) fn brdf_grad(m: &Model, g: &Geometry, grad: &mut [f64]) -> f64 {
     if m.dist == Distribution::Abc {
         return abc_brdf_grad(m, g, grad);
@@ -175,6 +175,7 @@ pub(super) fn brdf_grad(m: &Model, g: &Geometry, grad: &mut [f64]) -> f64 {
 /// [`brdf_grad`] with ABC's D = (1 + b (1 − cos θh))^(−c) (Löw et al. 2012, eq. 6 with
 /// A = 1): parameters (n, b, c, ps, pd); ∂D/∂b = −c (1 − cos θh) D/(1 + b (1 − cos θh)),
 /// ∂D/∂c = −ln(1 + b (1 − cos θh)) D.
+#[inline(always)]
 fn abc_brdf_grad(m: &Model, g: &Geometry, grad: &mut [f64]) -> f64 {
     let (n, b, c, ps, pd) = (m.p[0], m.p[1], m.p[2], m.p[3], m.p[4]);
     let x = 1.0 - g.nh.clamp(0.0, 1.0);
@@ -202,7 +203,7 @@ pub fn fresnel(n: f64, c: f64) -> f64 {
 }
 
 /// Fresnel reflectance and its derivative with respect to `n` (see [`fresnel`]).
-#[inline]
+#[inline(always)]
 pub fn fresnel_dn(n: f64, c: f64) -> (f64, f64) {
     let c = c.clamp(0.0, 1.0);
     let g = (n * n + c * c - 1.0).max(0.0).sqrt();
@@ -332,7 +333,7 @@ impl Distribution {
     }
 
     /// D and dD/dc at cos α = `nh`.
-    #[inline]
+    #[inline(always)]
     pub fn eval_dc(self, nh: f64, c: f64) -> (f64, f64) {
         let nh = nh.clamp(0.0, 1.0);
         match self {
