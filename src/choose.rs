@@ -522,7 +522,8 @@ pub const PIXEL_STALL: (usize, f64) = (25, 1e-6);
 /// unless it already fails the physical checks. Each configuration counts by its pixel
 /// count (the samples' weights), and a local fit never ends above its start, so the result's
 /// pixel cost is never above the global fit's; a refinement stops where its cost stalls
-/// ([`PIXEL_STALL`]). The physical checks are made again on the result. The log-loss fit stands where both refinements fail.
+/// ([`PIXEL_STALL`]). The physical checks are made again on the result. The log-loss fit
+/// stands where both refinements fail.
 pub fn refit_on_pixels(
     ds: &Dataset,
     start: FitResult,
