@@ -336,7 +336,12 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
     // Blinn's figures after the user's data.
     let per: u64 = STAGE_WEIGHTS.iter().map(|s| s.1).sum();
     let total = files.len() as u64 * per + 1;
-    say(opts, total - 1, total, "Blinn's figures 5–7");
+    say(
+        opts,
+        (total - 1) * UNITS,
+        total * UNITS,
+        "Blinn's figures 5–7",
+    );
     let t = Instant::now();
     let mut blinn = Doc::default();
     blinn_figures(&mut blinn, root, opts)?;
@@ -397,22 +402,46 @@ fn summary_row(
     ]
 }
 
+/// Progress units per [`STAGE_WEIGHTS`] unit, so that the steps inside a stage (each study
+/// fit, each `choose` candidate) move the bar and its estimate of the time left.
+const UNITS: u64 = 100;
+
 /// Announce stage `k` ([`STAGE_WEIGHTS`]) of file `f` of `n`.
 fn stage(opts: &ReportOptions, f: usize, n: usize, k: usize, what: &str) {
+    stage_at(opts, f, n, k, 0.0, what);
+}
+
+/// [`stage`] with the share `part` (0–1) of stage `k` done.
+fn stage_at(opts: &ReportOptions, f: usize, n: usize, k: usize, part: f64, what: &str) {
     let per: u64 = STAGE_WEIGHTS.iter().map(|s| s.1).sum();
-    let done = f as u64 * per + STAGE_WEIGHTS[..k].iter().map(|s| s.1).sum::<u64>();
-    say(opts, done, n as u64 * per + 1, what);
+    let start = f as u64 * per + STAGE_WEIGHTS[..k].iter().map(|s| s.1).sum::<u64>();
+    let within = (part.clamp(0.0, 1.0) * (STAGE_WEIGHTS[k].1 * UNITS) as f64) as u64;
+    say(
+        opts,
+        start * UNITS + within,
+        (n as u64 * per + 1) * UNITS,
+        what,
+    );
 }
 
 /// A step inside stage `k` of a file's section, e.g. one study.
 fn step(set: &DataSet, k: usize, what: &str) {
-    stage(
-        set.opts,
-        set.place.0,
-        set.place.1,
-        k,
-        &format!("{}: {what}", set.name),
-    );
+    step_at(set, k, 0.0, what);
+}
+
+/// [`step`] with the share `part` (0–1) of stage `k` done; only to a progress hook (the
+/// messages on stderr name the stages and the studies, not each step).
+fn step_at(set: &DataSet, k: usize, part: f64, what: &str) {
+    if set.opts.progress.is_some() {
+        stage_at(
+            set.opts,
+            set.place.0,
+            set.place.1,
+            k,
+            part,
+            &format!("{}: {what}", set.name),
+        );
+    }
 }
 
 /// What runs now: to the progress hook, else on stderr when verbose.
@@ -743,17 +772,16 @@ fn renders(doc: &mut Doc, set: &DataSet, ts: &FitResult) -> Result<()> {
 fn scene_needs(doc: &mut Doc, set: &DataSet, fits: &[FitResult]) -> Result<Vec<String>> {
     let (name, root, dir) = (&set.name, set.root, &set.name);
     doc.h(3, "What each scene needs", &format!("{name}-choose"));
-    let (r, images) = crate::choose::choose_with(
-        &set.ds,
-        &crate::choose::fig7_cases(CHOOSE_RES),
-        &crate::choose::ChooseOptions::default(),
-        fits,
-        &|m| {
-            if set.opts.progress.is_some() {
-                step(set, 4, m)
-            }
-        },
-    )?;
+    let cases = crate::choose::fig7_cases(CHOOSE_RES);
+    let opts = crate::choose::ChooseOptions::default();
+    // One progress line per step: the global fits, then per case its reference, its
+    // cross-validation and each candidate.
+    let steps = 1 + cases.len() * (2 + opts.candidates.len());
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let (r, images) = crate::choose::choose_with(&set.ds, &cases, &opts, fits, &|m| {
+        let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        step_at(set, 4, k as f64 / steps as f64, m)
+    })?;
     let out = root.join(dir).join("choose");
     crate::choose::write(&out, &r, &images)?;
     doc.p(&format!(
@@ -819,7 +847,15 @@ fn studies(
     doc.h(3, "Speed against accuracy", &format!("{name}-speed"));
     let truth = study::parse_truth(ds);
     step(set, 5, "studies: speed against accuracy");
-    let rows = study::speed_accuracy(ds, truth.as_ref(), 1);
+    // The speed study about half of the stage, the stability study the rest.
+    let rows = study::speed_accuracy_with_progress(ds, truth.as_ref(), 1, &|i, n, what| {
+        step_at(
+            set,
+            5,
+            0.5 * i as f64 / n as f64,
+            &format!("studies: speed against accuracy: {what}"),
+        )
+    });
     let chart = study::speed_chart(
         &format!("{name}: cost against fit time, every method × model"),
         &rows,
@@ -883,7 +919,19 @@ fn studies(
         .filter(|m| m.kind == ModelKind::TorranceSparrow)
         .unwrap_or(m);
     step(set, 5, "studies: stability from random starts");
-    let srows = study::stability(&reference, opts.stability_starts, 600, 1);
+    let configurations = std::sync::atomic::AtomicUsize::new(0);
+    let srows = study::stability_with_progress(&reference, opts.stability_starts, 600, 1, &|| {
+        let k = configurations.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        step_at(
+            set,
+            5,
+            0.5 + 0.5 * k as f64 / study::STABILITY_CONFIGURATIONS as f64,
+            &format!(
+                "studies: stability from random starts: {k} of {} configurations",
+                study::STABILITY_CONFIGURATIONS
+            ),
+        )
+    });
     let chart = study::stability_chart(
         &format!(
             "{name}: share of {} random starts reaching the global minimum",

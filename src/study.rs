@@ -78,57 +78,76 @@ pub fn study_models() -> Vec<(ModelKind, Distribution)> {
 
 /// Run every method × model on channel 0 of `ds` (median time of `repeats` runs).
 pub fn speed_accuracy(ds: &Dataset, truth: Option<&Model>, repeats: usize) -> Vec<SpeedRow> {
+    speed_accuracy_with_progress(ds, truth, repeats, &|_, _, _| {})
+}
+
+/// [`speed_accuracy`], calling `progress(done, total, what)` before each method × model
+/// (`what` names them) and once at the end (`done == total`).
+pub fn speed_accuracy_with_progress(
+    ds: &Dataset,
+    truth: Option<&Model>,
+    repeats: usize,
+    progress: &dyn Fn(usize, usize, &str),
+) -> Vec<SpeedRow> {
+    // A solver that runs once shows its budget on the solvers' comparison model,
+    // Torrance–Sparrow (D3), alone: it is no model's best.
+    let runs: Vec<(Method, (ModelKind, Distribution))> = Method::ALL
+        .into_iter()
+        .flat_map(|method| study_models().into_iter().map(move |m| (method, m)))
+        .filter(|&(method, m)| {
+            !runs_once(method) || m == (ModelKind::TorranceSparrow, Distribution::D3)
+        })
+        .collect();
     let mut rows = Vec::new();
-    for method in Method::ALL {
-        for (kind, dist) in study_models() {
-            // A solver that runs once shows its budget on the solvers' comparison model,
-            // Torrance–Sparrow (D3), alone: it is no model's best.
-            if runs_once(method) && (kind, dist) != (ModelKind::TorranceSparrow, Distribution::D3) {
-                continue;
-            }
-            let mut o = FitOptions::new(kind);
-            o.dist = dist;
-            o.method = method;
-            o.profile = false;
-            // A swarm runs once, from the start: the grid's candidates would each cost it its
-            // whole budget again.
-            o.local_only = runs_once(method);
-            if runs_once(method) {
-                o.limits.max_eval = ONCE_EVALUATIONS;
-            }
-            let mut times = Vec::new();
-            let mut last = None;
-            for _ in 0..repeats.max(1) {
-                match fit::fit(ds, &o) {
-                    Ok(mut f) => {
-                        let f = f.remove(0);
-                        times.push(f.seconds);
-                        last = Some(f);
-                    }
-                    Err(_) => break,
-                }
-            }
-            let Some(f) = last else { continue };
-            times.sort_by(f64::total_cmp);
-            let param_error = truth.filter(|t| t.kind == kind && t.dist == dist).map(|t| {
-                let m = f.model_for(0);
-                t.params()
-                    .iter()
-                    .zip(m.params())
-                    .map(|(a, b)| ((a - b) / a).abs())
-                    .fold(0.0, f64::max)
-            });
-            rows.push(SpeedRow {
-                method: method.name().into(),
-                model: f.label(),
-                seconds: times[times.len() / 2],
-                work: (f.evaluations * f.samples_used) as f64,
-                cost: f.cost,
-                param_error,
-                termination: f.termination.clone(),
-            });
+    for (i, &(method, (kind, dist))) in runs.iter().enumerate() {
+        progress(
+            i,
+            runs.len(),
+            &format!("{} on {}", method.name(), kind.label(dist)),
+        );
+        let mut o = FitOptions::new(kind);
+        o.dist = dist;
+        o.method = method;
+        o.profile = false;
+        // A swarm runs once, from the start: the grid's candidates would each cost it its
+        // whole budget again.
+        o.local_only = runs_once(method);
+        if runs_once(method) {
+            o.limits.max_eval = ONCE_EVALUATIONS;
         }
+        let mut times = Vec::new();
+        let mut last = None;
+        for _ in 0..repeats.max(1) {
+            match fit::fit(ds, &o) {
+                Ok(mut f) => {
+                    let f = f.remove(0);
+                    times.push(f.seconds);
+                    last = Some(f);
+                }
+                Err(_) => break,
+            }
+        }
+        let Some(f) = last else { continue };
+        times.sort_by(f64::total_cmp);
+        let param_error = truth.filter(|t| t.kind == kind && t.dist == dist).map(|t| {
+            let m = f.model_for(0);
+            t.params()
+                .iter()
+                .zip(m.params())
+                .map(|(a, b)| ((a - b) / a).abs())
+                .fold(0.0, f64::max)
+        });
+        rows.push(SpeedRow {
+            method: method.name().into(),
+            model: f.label(),
+            seconds: times[times.len() / 2],
+            work: (f.evaluations * f.samples_used) as f64,
+            cost: f.cost,
+            param_error,
+            termination: f.termination.clone(),
+        });
     }
+    progress(runs.len(), runs.len(), "done");
     rows
 }
 
@@ -675,7 +694,14 @@ pub fn stability(reference: &Model, starts: usize, samples: usize, seed: u64) ->
     stability_with_progress(reference, starts, samples, seed, &|| {})
 }
 
-/// [`stability`], calling `progress` after each of the 16 configurations.
+/// The noise levels of the stability study.
+const STABILITY_NOISES: [f64; 4] = [0.0, 0.01, 0.05, 0.20];
+
+/// The configurations of the stability study: each noise level × each sampling pattern.
+pub const STABILITY_CONFIGURATIONS: usize = STABILITY_NOISES.len() * Pattern::ALL.len();
+
+/// [`stability`], calling `progress` after each of the [`STABILITY_CONFIGURATIONS`]
+/// configurations.
 ///
 /// A fit with the global initialisation refines the grid's candidates and the start and keeps
 /// the lowest cost (the grid's on a tie: its candidates come first). The candidates do not
@@ -703,7 +729,7 @@ fn stability_runs(
     progress: &(dyn Fn() + Sync),
     share: bool,
 ) -> Vec<StabilityRow> {
-    let noises = [0.0, 0.01, 0.05, 0.20];
+    let noises = STABILITY_NOISES;
     let configs: Vec<(f64, Pattern)> = noises
         .iter()
         .flat_map(|&n| Pattern::ALL.iter().map(move |&p| (n, p)))

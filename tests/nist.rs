@@ -258,6 +258,7 @@ fn nist_strd_all_problems_both_starts() {
         ftol: 1e-16,
         xtol: 1e-16,
         gtol: 1e-15,
+        ..Limits::default()
     };
     let mut worst: f64 = 11.0;
     let mut failures = Vec::new();

@@ -243,6 +243,10 @@ pub struct Limits {
     pub xtol: f64,
     /// Stop when the largest scaled gradient component is below `gtol`.
     pub gtol: f64,
+    /// Levenberg–Marquardt only: stop when the cost fell by less than `stall.1` relative over
+    /// the last `stall.0` accepted steps (a slide along a plateau that every step still
+    /// lowers a little); `stall.0 = 0` (the default) turns it off.
+    pub stall: (usize, f64),
 }
 
 impl Default for Limits {
@@ -253,6 +257,7 @@ impl Default for Limits {
             ftol: 1e-14,
             xtol: 1e-15,
             gtol: 1e-14,
+            stall: (0, 0.0),
         }
     }
 }
@@ -496,6 +501,8 @@ pub fn levenberg_marquardt<P: Problem>(
     let mut steps = 0;
     let mut termination = "iteration limit reached".to_string();
     let mut converged = false;
+    // The cost at the start and after each accepted step (for `limits.stall`).
+    let mut accepted = vec![ne.cost];
     while iter < limits.max_iter {
         if evals >= limits.max_eval {
             termination = "evaluation limit reached".into();
@@ -586,6 +593,17 @@ pub fn levenberg_marquardt<P: Problem>(
                 termination = "cost reduction below tolerance".into();
                 converged = true;
                 break;
+            }
+            let (window, tol) = limits.stall;
+            if window > 0 {
+                accepted.push(ne.cost);
+                let before = accepted[accepted.len().saturating_sub(window + 1)];
+                if accepted.len() > window && ne.cost >= before * (1.0 - tol) {
+                    termination = format!(
+                        "stalled: the cost fell by less than {tol:e} relative over {window} steps"
+                    );
+                    break;
+                }
             }
         } else {
             mu *= nu;
@@ -854,6 +872,61 @@ pub(crate) mod tests {
             // Iterations are steps tried, each evaluated once (LM counted damping-only passes).
             assert!(s.iterations < s.evaluations, "{m:?}: {s:?}");
         }
+    }
+
+    /// r1 = 1 (no parameter reaches it), r2 = 10⁻³/x, x > 0: the cost ½ + ½·10⁻⁶/x² falls
+    /// forever as x grows, by less than 10⁻⁶ relative in all once x ≥ 1.
+    struct Plateau;
+
+    impl Problem for Plateau {
+        type Prepared = f64;
+        fn dim(&self) -> usize {
+            1
+        }
+        fn n_residuals(&self) -> usize {
+            2
+        }
+        fn prepare(&self, x: &[f64]) -> Option<f64> {
+            Some(x[0])
+        }
+        fn residual_grad(&self, x: &f64, i: usize, row: &mut [f64]) -> f64 {
+            if i == 0 {
+                row[0] = 0.0;
+                1.0
+            } else {
+                row[0] = -1e-3 / (x * x);
+                1e-3 / x
+            }
+        }
+        fn bounds(&self) -> Vec<(f64, f64)> {
+            vec![(1e-9, f64::INFINITY)]
+        }
+    }
+
+    #[test]
+    fn a_stalled_slide_stops_after_its_window() {
+        let off = levenberg_marquardt(&Plateau, &[1.0], Robust::None, &Limits::default());
+        let window = 3;
+        let limits = Limits {
+            stall: (window, 1e-6),
+            ..Limits::default()
+        };
+        let on = levenberg_marquardt(&Plateau, &[1.0], Robust::None, &limits);
+        // From x = 1 the whole remaining fall, ½·10⁻⁶, is below 10⁻⁶ of the cost ½: the first
+        // full window ends the run.
+        assert!(on.termination.starts_with("stalled"), "{on:?}");
+        assert_eq!(on.iterations, window, "{on:?}");
+        assert!(
+            !off.termination.starts_with("stalled") && off.iterations > window,
+            "{off:?}"
+        );
+        // Both within 10⁻⁶ of the infimum ½.
+        assert!(
+            on.cost - 0.5 <= 0.5e-6 && off.cost <= on.cost,
+            "{on:?} {off:?}"
+        );
+        // Off by default: every other run is unchanged.
+        assert_eq!(Limits::default().stall.0, 0);
     }
 
     #[test]
