@@ -304,18 +304,18 @@ fn measure_reference_quick() {
                 mat
             });
             let t_cv = t.elapsed().as_secs_f64();
-            for k in 0..folds.len() {
+            for (k, fold) in folds.iter().enumerate() {
                 let (e, _, _) =
-                    brdfit::choose::cross_validate(&s, &r, &folds[k..k + 1], &m, &|t| {
+                    brdfit::choose::cross_validate(&s, &r, std::slice::from_ref(fold), &m, &|t| {
                         let mut mat = s.materials[0].clone();
                         mat.model = fill;
                         mat.measured = Some(t);
                         mat
                     });
-                let fold_img = render(&s, (*folds[k].table).clone());
+                let fold_img = render(&s, (*fold.table).clone());
                 println!(
                     "  {name} {case} fold {k} ({}): against the reference {:.3}, against the truth {:.3}",
-                    folds[k].name,
+                    fold.name,
                     e.map_or(f64::NAN, |e| e.flip_p99),
                     flip_p99(&truth, &fold_img, &m)
                 );
