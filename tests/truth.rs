@@ -611,25 +611,12 @@ fn uniform_half_across_test_seeds() {
 /// whole test set, while the same model fitted to the goniometer grid is not.
 #[test]
 fn whole_set_losses_are_the_goniometer_grids() {
-    let set = test_set(22);
     let dense: Vec<[f64; 4]> = draws(7, 30_000, 30_000)
         .into_iter()
         .map(|(a, _)| a)
         .collect();
-    let mut o = FitOptions::new(brdfit::ModelKind::TorranceSparrow);
-    o.dist = brdfit::model::Distribution::Abc;
-    o.profile = false;
     for name in ["chrome", "white-paint"] {
-        let published = abc(name);
-        let (net, gon) = training(name, &goniometer(), false);
-        let (_, den) = training(name, &dense, true);
-        let truth: Vec<f64> = set.iter().map(|(a, _)| net.eval_symmetric(*a)[1]).collect();
-        let error = |ds: &Dataset| {
-            let m = fit(ds, &o).unwrap().remove(0).model_for(0);
-            log_error(&set, &truth, &|g| m.brdf(g)).0
-        };
-        let (e_gon, e_den) = (error(&gon), error(&den));
-        let e_abc = log_error(&set, &truth, &|g| published.brdf(g)).0;
+        let (e_gon, e_den, e_abc) = ts_abc_from_grid_and_draws(name, &dense, |e| e.0);
         println!(
             "{name}, whole set: TS-abc from the goniometer grid {e_gon:.4}, from the test distribution {e_den:.4}, ABC 2012 {e_abc:.4}"
         );
@@ -640,6 +627,30 @@ fn whole_set_losses_are_the_goniometer_grids() {
     }
 }
 
+/// torrance-sparrow-abc's log error on test set 22 (the part `pick` takes of `log_error`'s
+/// whole set / uniform half) fitted to `name`'s goniometer grid and to `draws` of its
+/// symmetrised network, and the published ABC fit's: (grid, draws, ABC).
+fn ts_abc_from_grid_and_draws(
+    name: &str,
+    draws: &[[f64; 4]],
+    pick: impl Fn((f64, f64)) -> f64,
+) -> (f64, f64, f64) {
+    let set = test_set(22);
+    let mut o = FitOptions::new(brdfit::ModelKind::TorranceSparrow);
+    o.dist = brdfit::model::Distribution::Abc;
+    o.profile = false;
+    let published = abc(name);
+    let (net, gon) = training(name, &goniometer(), false);
+    let (_, den) = training(name, draws, true);
+    let truth: Vec<f64> = set.iter().map(|(a, _)| net.eval_symmetric(*a)[1]).collect();
+    let error = |ds: &Dataset| {
+        let m = fit(ds, &o).unwrap().remove(0).model_for(0);
+        pick(log_error(&set, &truth, &|g| m.brdf(g)))
+    };
+    let e_abc = pick(log_error(&set, &truth, &|g| published.brdf(g)));
+    (error(&gon), error(&den), e_abc)
+}
+
 /// The uniform half's steady losses (silver-paint's and white-diffuse-bball's lobe shoulder,
 /// behind ABC on all five test seeds of `uniform_half_across_test_seeds`) are the goniometer
 /// grid's, not the ladder's: torrance-sparrow-abc fitted to 30,000 draws from the uniform half
@@ -647,22 +658,9 @@ fn whole_set_losses_are_the_goniometer_grids() {
 /// of the test set, while the same model fitted to the goniometer grid is not.
 #[test]
 fn uniform_half_shoulder_losses_are_the_goniometer_grids() {
-    let set = test_set(22);
     let uniform: Vec<[f64; 4]> = draws(7, 30_000, 0).into_iter().map(|(a, _)| a).collect();
-    let mut o = FitOptions::new(brdfit::ModelKind::TorranceSparrow);
-    o.dist = brdfit::model::Distribution::Abc;
-    o.profile = false;
     for name in ["silver-paint", "white-diffuse-bball"] {
-        let published = abc(name);
-        let (net, gon) = training(name, &goniometer(), false);
-        let (_, den) = training(name, &uniform, true);
-        let truth: Vec<f64> = set.iter().map(|(a, _)| net.eval_symmetric(*a)[1]).collect();
-        let error = |ds: &Dataset| {
-            let m = fit(ds, &o).unwrap().remove(0).model_for(0);
-            log_error(&set, &truth, &|g| m.brdf(g)).1
-        };
-        let (e_gon, e_uni) = (error(&gon), error(&den));
-        let e_abc = log_error(&set, &truth, &|g| published.brdf(g)).1;
+        let (e_gon, e_uni, e_abc) = ts_abc_from_grid_and_draws(name, &uniform, |e| e.1);
         println!(
             "{name}, uniform half: TS-abc from the goniometer grid {e_gon:.4}, from the uniform half's distribution {e_uni:.4}, ABC 2012 {e_abc:.4}"
         );
