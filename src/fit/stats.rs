@@ -26,7 +26,8 @@ pub(super) fn uncertainty(
     let m = full.rows.len();
     let nfree = theta.len();
     let (se, corr, singular) = statistics(full, sol, theta, cost, m);
-    let prof = full.subsample(1000);
+    // The subsample the profiles run on, made only if a range is profiled.
+    let prof = std::sync::OnceLock::new();
     // Each free parameter's 1 % range, the parameters in parallel (a profile is a series of
     // refits; each range is the same on any number of threads).
     let range_of = |k: usize| -> Option<(f64, f64)> {
@@ -48,7 +49,13 @@ pub(super) fn uncertainty(
         } else if quadratic.is_some() {
             quadratic
         } else {
-            profile_range(&prof, &sol.x, k, opts)
+            profile_range(
+                prof.get_or_init(|| full.subsample(PROFILE_ROWS)),
+                &sol.x,
+                k,
+                du,
+                opts,
+            )
         }
     };
     let all_ranges: Vec<Option<(f64, f64)>> = {
@@ -248,14 +255,22 @@ pub fn describe_range(name: &str, (lo, hi): (f64, f64)) -> String {
     format!("{what} fits within 1 % of the minimum cost")
 }
 
-/// Profile a free variable on problem `p`: hold it at grid values, refit the rest from the
-/// optimum `x`, and return the range of values whose cost is within 1 % of the minimum. The
-/// bounds are the nearest grid values that do *not* fit, so the range contains every value
-/// that does; an end that reaches the parameter's own bound is ∓∞ (open).
+/// Rows per channel of the subsample a range is profiled on.
+const PROFILE_ROWS: usize = 1000;
+
+/// Profile a free variable on problem `p`: hold it at probed values, refit the rest, and
+/// return the range of values whose cost is within 1 % of the minimum. The bounds are the
+/// nearest probed values that do *not* fit, so the range contains every value that does; an
+/// end that reaches the parameter's own bound is ∓∞ (open). `du` is the step in solver space
+/// the quadratic model of the cost predicts for a 1 % rise (where it is not finite, 0.05):
+/// each side starts there (see [`crossing`]), and each refit starts from the other
+/// variables' values at the nearest value probed before (a failing one also from the
+/// optimum's).
 pub(super) fn profile_range(
     p: &BrdfProblem,
     x: &[f64],
     k: usize,
+    du: f64,
     opts: &FitOptions,
 ) -> Option<(f64, f64)> {
     let t = p.transforms[k];
@@ -266,8 +281,8 @@ pub(super) fn profile_range(
         ftol: 1e-8,
         ..opts.limits
     };
-    // Cost of the problem with variable k held at solver value u, the rest refitted from x.
-    let held = |u: f64| -> f64 {
+    // The problem with variable k held at solver value u (the rest free).
+    let held_problem = |u: f64| -> BrdfProblem {
         let mut q = p.clone();
         let v = t.apply(u).0;
         for slots in q.layout.iter_mut() {
@@ -280,47 +295,240 @@ pub(super) fn profile_range(
             }
         }
         q.transforms.remove(k);
-        let mut x0 = x.to_vec();
-        x0.remove(k);
-        let s = lsq::levenberg_marquardt(&q, &x0, Robust::None, &limits);
-        if s.cost.is_finite() {
-            s.cost
-        } else {
-            f64::INFINITY
-        }
+        q
     };
     let c0 = lsq::cost(p, x, Robust::None)?;
     let limit = 1.01 * c0;
-    // Walk outward in solver space with doubling steps until the cost exceeds the limit, then
-    // bisect; the bound returned is the failing end of the last bracket.
-    let side = |dir: f64| -> Option<f64> {
-        let edge = if dir > 0.0 { uhi } else { ulo };
-        let mut inside = x[k];
-        let mut step = 0.05;
-        let outside = loop {
-            let u = (inside + dir * step).clamp(ulo, uhi);
-            if held(u) > limit {
-                break u;
-            }
-            if u == edge {
-                return None;
-            }
-            inside = u;
-            step *= 2.0;
-        };
-        let (mut a, mut b) = (inside, outside);
-        for _ in 0..4 {
-            let mid = 0.5 * (a + b);
-            if held(mid) > limit {
-                b = mid;
+    let mut rest = x.to_vec();
+    rest.remove(k);
+    // Cost with variable k held at u, the rest refitted from `warm`, and where they ended. A
+    // refit above the limit is made again from the optimum, and the lower kept: a warm start
+    // from a distant probe can stall (40 iterations) where the optimum's values do not, and
+    // a value is called failing only when neither start fits.
+    let held = |u: f64, warm: &[f64]| -> (f64, Vec<f64>) {
+        let q = held_problem(u);
+        let refit = |from: &[f64]| {
+            let s = lsq::levenberg_marquardt(&q, from, Robust::None, &limits);
+            let c = if s.cost.is_finite() {
+                s.cost
             } else {
-                a = mid;
-            }
+                f64::INFINITY
+            };
+            (c, s.x)
+        };
+        let first = refit(warm);
+        if first.0 <= limit || warm == rest.as_slice() {
+            return first;
         }
-        Some(b)
+        let cold = refit(&rest);
+        if cold.0 < first.0 { cold } else { first }
+    };
+    let side = |dir: f64| {
+        let edge = if dir > 0.0 { uhi } else { ulo };
+        crossing(&held, x[k], &rest, c0, limit, dir, du, edge).0
     };
     let (lo, hi) = rayon::join(|| side(-1.0), || side(1.0));
     let lo = lo.map_or(f64::NEG_INFINITY, |u| t.apply(u).0);
     let hi = hi.map_or(f64::INFINITY, |u| t.apply(u).0);
     Some((lo, hi))
+}
+
+/// Probes of one side of a profile at most (the walk grows its step at least 1.1× a probe, so
+/// only an unbounded variable whose cost never rises reaches this; that side is then open).
+const MAX_PROBES: usize = 60;
+
+/// One side of a profile: from the minimum `u0` (cost `c0`) in direction `dir` (±1), the
+/// nearest probed value whose profiled cost exceeds `limit`, or `None` when `edge` itself
+/// does not exceed it (the range is open on that side); with the number of probes. `held(u,
+/// warm)` is the profiled cost at u, refitted from `warm`, and where the other variables end.
+///
+/// The walk starts at the predicted distance `du` (the quadratic model's, 0.05 where it is
+/// not finite or not positive); while a probe fits, the next goes where c(d) = c0 + a d²
+/// through it reaches the limit (1 % beyond, at least 1.1× and at most 10× the distance).
+/// The bracket (last fitting distance, first failing one) then closes by interpolation in d²
+/// (exact for a quadratic profile), nudged by a quarter of the tolerance towards the side the
+/// last probe did not land on, with a bisection after three probes in a row on one side,
+/// until it is at most 1 % of the distance wide (or 1e-9): the end returned is then within
+/// that of the true crossing, from outside.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn crossing(
+    held: &impl Fn(f64, &[f64]) -> (f64, Vec<f64>),
+    u0: f64,
+    warm0: &[f64],
+    c0: f64,
+    limit: f64,
+    dir: f64,
+    du: f64,
+    edge: f64,
+) -> (Option<f64>, usize) {
+    let reach = (edge - u0).abs();
+    let at = |d: f64| if d >= reach { edge } else { u0 + dir * d };
+    let mut probes = 0;
+    // The last fitting probe: distance, cost, the other variables there.
+    let (mut a, mut ca, mut wa) = (0.0, c0, warm0.to_vec());
+    let mut d = if du.is_finite() && du > 0.0 { du } else { 0.05 };
+    let (mut b, mut cb, mut wb) = loop {
+        d = d.min(reach);
+        let (c, w) = held(at(d), &wa);
+        probes += 1;
+        if !(c <= limit) {
+            break (d, c, w);
+        }
+        if d >= reach || probes >= MAX_PROBES {
+            return (None, probes);
+        }
+        let rise = c - c0;
+        let next = if rise > 0.0 {
+            1.01 * d * ((limit - c0) / rise).sqrt()
+        } else {
+            f64::INFINITY
+        };
+        (a, ca, wa) = (d, c, w);
+        d = next.clamp(1.1 * d, 10.0 * d);
+    };
+    // The side the last probe landed on (+1 failing) and how many in a row landed there.
+    let (mut last, mut streak) = (1, 1);
+    while probes < MAX_PROBES {
+        let width = b - a;
+        let tol = (0.01 * b).max(1e-9);
+        if width <= tol {
+            break;
+        }
+        let (sa, sb) = (a * a, b * b);
+        // (A failing end whose refit has no finite cost gives no slope: bisect.)
+        let r = if cb.is_finite() {
+            (sa + (limit - ca) * (sb - sa) / (cb - ca)).sqrt()
+        } else {
+            f64::NAN
+        };
+        let q = 0.25 * tol.min(0.5 * width);
+        let m = if !r.is_finite() || streak >= 3 {
+            streak = 0;
+            0.5 * (a + b)
+        } else if last > 0 {
+            (r - q).clamp(a + q, b - q)
+        } else {
+            (r + q).clamp(a + q, b - q)
+        };
+        // Warm from the nearer end (the failing end only if its refit is finite).
+        let warm = if m - a <= b - m || !cb.is_finite() {
+            &wa
+        } else {
+            &wb
+        };
+        let (c, w) = held(at(m), warm);
+        probes += 1;
+        let side = if c <= limit {
+            (a, ca, wa) = (m, c, w);
+            -1
+        } else {
+            (b, cb, wb) = (m, c, w);
+            1
+        };
+        streak = if side == last { streak + 1 } else { 1 };
+        last = side;
+    }
+    (Some(at(b)), probes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A profiled cost given as a function (no refit: `warm` is passed through).
+    fn probe(f: impl Fn(f64) -> f64) -> impl Fn(f64, &[f64]) -> (f64, Vec<f64>) {
+        move |u, w| (f(u), w.to_vec())
+    }
+
+    /// A quadratic profile c(u) = c0 (1 + (u − u0)²/s²) rises by 1 % at u0 ± s/10 exactly:
+    /// each side returns a failing value at most 1 % of the distance beyond it, from the
+    /// predicted step (exact here) in a few probes, and from a poor prediction (100× too
+    /// short or too long, or none) in a few more.
+    #[test]
+    fn quadratic_profile_crosses_at_the_hand_worked_value() {
+        let (u0, s, c0) = (0.7, 0.4, 3.0);
+        let f = probe(move |u: f64| c0 * (1.0 + (u - u0).powi(2) / (s * s)));
+        let exact = s / 10.0;
+        for (du, most) in [
+            (exact, 4),
+            (exact / 100.0, 12),
+            (exact * 100.0, 14),
+            (f64::NAN, 12),
+        ] {
+            for dir in [-1.0, 1.0] {
+                let (u, n) = crossing(&f, u0, &[], c0, 1.01 * c0, dir, du, dir * 50.0);
+                let d = (u.expect("a closed side") - u0) * dir;
+                assert!(
+                    d >= exact * (1.0 - 1e-12) && d <= exact * 1.0101,
+                    "du {du} dir {dir}: {d} vs {exact}"
+                );
+                assert!(f(u0 + dir * d, &[]).0 > 1.01 * c0);
+                assert!(n <= most, "du {du} dir {dir}: {n} probes");
+            }
+        }
+    }
+
+    /// A skewed profile c(u) = c0 e^{(u − u0)} − c0 (u − u0) (minimum c0 at u0): the 1 % rise
+    /// is where e^d − d = 1.01 (d²/2 + d³/6 + … = 0.01): d = 0.138165… above and −0.144835…
+    /// below (Newton's method on it, here and by hand); a side whose cost never reaches the
+    /// limit before the edge is open.
+    #[test]
+    fn skewed_profile_and_an_open_side() {
+        let (u0, c0) = (-1.0, 2.0);
+        let f = probe(move |u: f64| c0 * ((u - u0).exp() - (u - u0)));
+        // Newton on g(d) = e^d − d − 1.01 from each side.
+        let root = |mut d: f64| {
+            for _ in 0..50 {
+                d -= (d.exp() - d - 1.01) / (d.exp() - 1.0);
+            }
+            d
+        };
+        let (up, down) = (root(0.2), root(-0.2));
+        assert!((up - 0.138_165).abs() < 1e-6 && (down + 0.144_835).abs() < 1e-6);
+        let (hi, _) = crossing(&f, u0, &[], c0, 1.01 * c0, 1.0, 0.05, 10.0);
+        let (lo, _) = crossing(&f, u0, &[], c0, 1.01 * c0, -1.0, 0.05, -10.0);
+        let (hi, lo) = (hi.unwrap() - u0, lo.unwrap() - u0);
+        assert!(hi >= up * (1.0 - 1e-9) && hi <= up * 1.0101, "{hi} vs {up}");
+        assert!(
+            lo <= down * (1.0 - 1e-9) && lo >= down * 1.0101,
+            "{lo} vs {down}"
+        );
+        // The edge at u0 + 0.1 lies inside the range: open.
+        let (open, n) = crossing(&f, u0, &[], c0, 1.01 * c0, 1.0, 0.05, u0 + 0.1);
+        assert_eq!(open, None);
+        assert!(n <= 2, "{n}");
+    }
+
+    /// Profiling on a real problem: Lambert's f_r = pd/π with the linear loss has the cost
+    /// ½ Σ (pd/π − f_i)², quadratic in pd; for f = 1, 2, 3, 4 the minimum is pd = 2.5π with
+    /// cost 2.5, and the cost rises by 1 % (0.025) where ½·4·(Δ/π)² = 0.025, Δ = π √0.0125 =
+    /// 0.351240…: the range is [7.502741, 8.205222] to within 1 % of Δ, outside it.
+    #[test]
+    fn lambert_linear_range_by_hand() {
+        use crate::data::{Dataset, Quantity};
+        let mut ds = Dataset::new(Quantity::Brdf, vec![("y".into(), None)]);
+        for (i, f) in [1.0, 2.0, 3.0, 4.0].iter().enumerate() {
+            let t = 0.1 + 0.2 * i as f64;
+            ds.push([t, 0.0, t + 0.1, 3.0], &[*f]);
+        }
+        let mut opts = FitOptions::new(ModelKind::Lambert);
+        opts.loss = Loss::Linear;
+        let rows = super::super::setup::channel_rows(&ds, 0, &opts);
+        let lay = super::super::setup::layout(&["y".to_string()], &opts);
+        let p = super::super::setup::problem(vec![rows], &lay, &opts);
+        let pi = std::f64::consts::PI;
+        let x = [2.5 * pi];
+        assert!((lsq::cost(&p, &x, Robust::None).unwrap() - 2.5).abs() < 1e-12);
+        let delta = pi * 0.0125f64.sqrt();
+        assert!((delta - 0.351_240).abs() < 1e-6);
+        for du in [delta, 0.05, f64::NAN] {
+            let (lo, hi) = profile_range(&p, &x, 0, du, &opts).expect("a finite cost");
+            // (An end may be the crossing itself, whose cost rounds above the limit.)
+            let (dlo, dhi) = (2.5 * pi - lo, hi - 2.5 * pi);
+            assert!(dlo >= delta * (1.0 - 1e-9) && dlo <= 1.0101 * delta, "{lo}");
+            assert!(dhi >= delta * (1.0 - 1e-9) && dhi <= 1.0101 * delta, "{hi}");
+        }
+        assert!((2.5 * pi - delta - 7.502_741).abs() < 1e-6);
+        assert!((2.5 * pi + delta - 8.205_222).abs() < 1e-6);
+    }
 }
