@@ -1658,7 +1658,8 @@ fn a_failed_fit_writes_no_file() {
 
 /// `fit --weights solid-angle` is the same fit as `--weights file` on a copy of the data whose
 /// `weight` column holds those weights (a second path through the loader), and differs from
-/// the unweighted fit; the weights themselves are checked by hand in tests/truth.rs.
+/// the unweighted fit; the weights themselves are checked by hand in tests/truth.rs. The fit
+/// JSON records `weights` and `weighted`, and the table labels a weighted cost and rmse.
 #[test]
 fn fit_solid_angle_weights_equal_a_weight_column() {
     let dir = tempfile::tempdir().unwrap();
@@ -1716,13 +1717,24 @@ fn fit_solid_angle_weights_equal_a_weight_column() {
         );
         let v: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-        v["params"]["n"].as_f64().unwrap()
+        // The fit file records the weighting, and both it and the table say when the cost
+        // and rmse are weighted ones.
+        let stdout = String::from_utf8_lossy(&o.stdout).to_string();
+        let weighted = v["weighted"].as_bool().unwrap();
+        assert_eq!(v["weights"], serde_json::json!(how), "{v}");
+        assert_eq!(stdout.contains("(weighted: "), weighted, "{stdout}");
+        let back = brdfit::fit::FitResult::from_json(&v).unwrap();
+        assert_eq!(back.weighted, weighted);
+        (v["params"]["n"].as_f64().unwrap(), weighted, stdout)
     };
-    let (solid, column, plain) = (
+    let ((solid, w1, t1), (column, w2, t2), (plain, w3, _)) = (
         n(&data, "solid-angle"),
         n(&weighted, "file"),
         n(&data, "file"),
     );
+    assert!(w1 && w2 && !w3);
+    assert!(t1.contains("(weighted: solid angle)"), "{t1}");
+    assert!(t2.contains("(weighted: the file's weight column)"), "{t2}");
     assert!(
         (solid - column).abs() < 1e-6 * column,
         "{solid} vs {column}"

@@ -38,6 +38,8 @@ const KEYS: &[&str] = &[
     "loss",
     "method",
     "channel",
+    "weights",
+    "weighted",
     "params",
     "stderr",
     "correlation",

@@ -65,9 +65,15 @@ pub fn format_fit(f: &FitResult) -> String {
             let _ = writeln!(s, "  {n:<8} {value:>14} {:>14}", "(fixed)");
         }
     }
+    // Weighted samples: the cost and rmse are the weighted ones, and say so.
+    let w = match (f.weighted, f.weights) {
+        (false, _) => "",
+        (true, Weighting::File) => " (weighted: the file's weight column)",
+        (true, Weighting::SolidAngle) => " (weighted: solid angle)",
+    };
     let _ = writeln!(
         s,
-        "  cost {:.6e}  rmse {:.4e}  iterations {}  evaluations {}  {:.3} s",
+        "  cost {:.6e}  rmse {:.4e}{w}  iterations {}  evaluations {}  {:.3} s",
         f.cost, f.rmse, f.iterations, f.evaluations, f.seconds
     );
     let _ = writeln!(s, "  termination: {}", f.termination);

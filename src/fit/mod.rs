@@ -98,8 +98,19 @@ pub enum RobustKind {
     Cauchy,
 }
 
-/// How each sample is weighted in the loss.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+/// How each sample is weighted in the loss (`weights` in the fit JSON).
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    clap::ValueEnum,
+    serde::Serialize,
+    serde::Deserialize,
+)]
+#[serde(rename_all = "kebab-case")]
 pub enum Weighting {
     /// The file's weights column, or every sample 1 (default).
     #[default]
@@ -228,9 +239,19 @@ pub struct FitResult {
     /// Which parameters were free.
     #[serde(default)]
     pub free: Vec<bool>,
-    /// ½ Σ r² with the declared loss at the returned parameters, on the samples used.
+    /// How the samples were weighted (`--weights`: `file`, the file's weight column or 1;
+    /// `solid-angle`, that times each sample's solid angle). Fit files of earlier versions,
+    /// which do not say, read as `file`.
+    #[serde(default)]
+    pub weights: Weighting,
+    /// True when the samples' weights were not all 1 (a weight column, or `solid-angle`):
+    /// `cost` and `rmse` are then the weighted ones.
+    #[serde(default)]
+    pub weighted: bool,
+    /// ½ Σ w r² with the declared loss at the returned parameters, on the samples used (w = 1
+    /// unless `weighted`).
     pub cost: f64,
-    /// √(2 cost / samples_used).
+    /// √(2 cost / samples_used) (weighted when `weighted`).
     pub rmse: f64,
     /// Rows used (samples × channels).
     pub samples_used: usize,
@@ -399,6 +420,8 @@ impl FitResult {
                 .and_then(|m| Method::parse(&m))
                 .unwrap_or_default(),
             channel: s("channel").unwrap_or_default(),
+            weights: Weighting::default(),
+            weighted: v.get("weighted").and_then(|x| x.as_bool()).unwrap_or(false),
             stderr: vec![0.0; n],
             correlation: vec![],
             free: vec![true; n],
@@ -604,6 +627,7 @@ fn fit_group(
     let lay = layout(&channel_names, opts);
     check_data(&chans, &lay, opts, &channel_label)?;
     let m: usize = chans.iter().map(|c| c.rows.len()).sum();
+    let weighted = chans.iter().any(|c| c.rows.weighted());
     let nfree = lay.transforms.len();
     let full = problem(chans, &lay, opts);
     let mut found = search(&full, &lay, opts);
@@ -661,6 +685,8 @@ fn fit_group(
         loss: opts.loss,
         method: opts.method,
         channel: channel_label,
+        weights: opts.weights,
+        weighted,
         params,
         stderr,
         correlation,
