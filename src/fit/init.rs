@@ -15,21 +15,37 @@ pub(super) struct TsFactors {
     pub(super) m: usize,
 }
 
+/// Append F(n) at each E·H of `eh` times `geo`, row by row (a plain loop over slices, so it
+/// vectorises; compiled for AVX-512 and AVX2 as well and picked at run time).
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn fresnel_times(n: f64, eh: &[f64], geo: &[f64], out: &mut Vec<f64>) {
+    out.extend(
+        eh.iter()
+            .zip(geo)
+            .map(|(&c, &g)| crate::model::fresnel(n, c) * g),
+    );
+}
+
+/// Append the distribution's shape term D at each N·H of `nh` for shape point `c` (see
+/// [`fresnel_times`]).
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn shape_values(dist: Distribution, c: &[f64], nh: &[f64], out: &mut Vec<f64>) {
+    out.extend(nh.iter().map(|&x| dist.eval_shape(x, c)));
+}
+
 impl TsFactors {
     fn new(rows: &Rows, dist: Distribution, ns: &[f64], cs: &[Vec<f64>]) -> Self {
         let m = rows.len();
         let pi = std::f64::consts::FRAC_1_PI;
         let geo: Vec<f64> = (0..m).map(|r| rows.g_ne[r] * pi / rows.nl[r]).collect();
-        let a = ns
-            .iter()
-            .flat_map(|&n| (0..m).map(move |r| crate::model::fresnel(n, rows.eh[r])))
-            .zip(geo.iter().cycle())
-            .map(|(f, g)| f * g)
-            .collect();
-        let b = cs
-            .iter()
-            .flat_map(|c| (0..m).map(move |r| dist.eval_shape(rows.nh[r], c)))
-            .collect();
+        let mut a = Vec::with_capacity(ns.len() * m);
+        for &n in ns {
+            fresnel_times(n, &rows.eh, &geo, &mut a);
+        }
+        let mut b = Vec::with_capacity(cs.len() * m);
+        for c in cs {
+            shape_values(dist, c, &rows.nh, &mut b);
+        }
         TsFactors { a, b, m }
     }
 
@@ -54,11 +70,11 @@ impl TsFactors {
         use nalgebra::DMatrix;
         let m = self.m;
         let (ni, nc) = (self.a.len() / m, self.b.len() / m);
-        let rowm = |n: usize, f: &dyn Fn(usize) -> f64| DMatrix::from_fn(n, m, |i, r| f(i * m + r));
+        // Row i of `a` times the weights (no division per element to find the row).
         let a = &self.a;
-        let wa2 = rowm(ni, &|k| w[k % m] * a[k] * a[k]);
-        let wa = rowm(ni, &|k| w[k % m] * a[k]);
-        let wfa = rowm(ni, &|k| wf[k % m] * a[k]);
+        let wa2 = DMatrix::from_fn(ni, m, |i, r| w[r] * a[i * m + r] * a[i * m + r]);
+        let wa = DMatrix::from_fn(ni, m, |i, r| w[r] * a[i * m + r]);
+        let wfa = DMatrix::from_fn(ni, m, |i, r| wf[r] * a[i * m + r]);
         let bt = DMatrix::from_fn(m, nc, |r, j| self.b[j * m + r]);
         let b2t = bt.map(|x| x * x);
         let ss = wa2 * b2t;
@@ -731,9 +747,13 @@ pub(super) const INIT_ROWS: usize = 500;
 /// How many candidates of distinct basins the global initialisation hands to the local method.
 pub(super) const CANDIDATES: usize = 4;
 
-/// Grids of more points than this (to score) are searched coarse to fine ([`search_grid`]),
-/// except two lobes' (ggx-smith-2's half grid α1 ≤ α2, 3,230 points).
-pub(super) const COARSE_ABOVE: usize = 1024;
+/// Grids of more points than this (to score) are searched coarse to fine ([`search_grid`]):
+/// Torrance–Sparrow's n × c (17 × 19, 323 points), GGX–Smith's α × n, ABC's n × b × c; except
+/// two lobes' (ggx-smith-2's half grid α1 ≤ α2, 3,230 points).
+pub(super) const COARSE_ABOVE: usize = 256;
+
+/// Grid points scored in one batch below which the batch runs on the calling thread.
+pub(super) const PARALLEL_POINTS: usize = 32;
 
 /// Local minima of the coarse grid whose neighbourhoods are searched on the full grid.
 pub(super) const COARSE_SEEDS: usize = 8;
@@ -748,7 +768,9 @@ pub(super) const GRID_LIMIT: usize = 8192;
 /// linear least-squares solve ([`nnls`]; weights that linearise the loss at the data); each
 /// point is then scored on the *declared* loss at those values, so a basin ranks by the cost
 /// the fit minimises, not by its linearisation. The grid's local minima (distinct basins) are
-/// returned best first, at most [`CANDIDATES`], as solver variables.
+/// returned best first, at most [`CANDIDATES`], as solver variables. The grid is scored on a
+/// subsample of `full`'s rows ([`INIT_ROWS`] per channel; `full` may itself be the local
+/// stage's subsample, whose largest values are those of every row).
 pub(super) fn global_init(
     full: &BrdfProblem,
     specs: &[&ParamSpec],
@@ -1029,7 +1051,12 @@ pub(super) fn global_init(
         COARSE_ABOVE
     };
     let (first, found) = search_grid(&dims, coarse_above, admissible, |idx| {
-        let s: Vec<(f64, Vec<f64>)> = idx.par_iter().map(|&i| score_point(i, 0)).collect();
+        // A batch of a few points (a box of the fine search) is not worth waking the pool.
+        let s: Vec<(f64, Vec<f64>)> = if idx.len() >= PARALLEL_POINTS {
+            idx.par_iter().map(|&i| score_point(i, 0)).collect()
+        } else {
+            idx.iter().map(|&i| score_point(i, 0)).collect()
+        };
         let out = s.iter().map(|s| s.0).collect();
         for (&i, s) in idx.iter().zip(s) {
             scored[i] = s;
@@ -1565,7 +1592,7 @@ mod tests {
     #[test]
     fn small_grids_are_scored_whole() {
         let (scores, minima) = search_grid(
-            &[17, 19],
+            &[15, 17],
             COARSE_ABOVE,
             |_| true,
             |idx| vec![1.0; idx.len()],

@@ -181,64 +181,49 @@ impl Transform {
     }
 }
 
-/// The indices of the `k` largest values of `v` in `range` (ties to the lower index). The
-/// k-th largest of the block maxima (blocks of 1,024 rows) is a lower bound of the k-th largest
-/// value, so only blocks whose maximum reaches it are searched, with a bounded heap.
+/// The indices of the `k` largest values of `v` in `range` (ties to the lower index), in no
+/// particular order. The k-th largest of the block maxima (blocks of 1,024 rows) is a lower
+/// bound of the k-th largest value, so only rows of blocks whose maximum reaches it are
+/// candidates; among them one selection (linear time) finds the k-th largest value, and the
+/// rows above it, then the rows equal to it in index order, are taken.
 fn largest(v: &[f64], range: std::ops::Range<usize>, k: usize) -> Vec<usize> {
-    use std::cmp::{Ordering, Reverse};
-    use std::collections::BinaryHeap;
-    /// A row ranked by value (total order), then by lower index first.
-    #[derive(PartialEq)]
-    struct Key(f64, Reverse<usize>);
-    impl Eq for Key {}
-    impl PartialOrd for Key {
-        fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
-            Some(self.cmp(o))
-        }
-    }
-    impl Ord for Key {
-        fn cmp(&self, o: &Self) -> Ordering {
-            self.0.total_cmp(&o.0).then(self.1.cmp(&o.1))
-        }
-    }
     if k == 0 || range.is_empty() {
         return Vec::new();
     }
     const BLOCK: usize = 1024;
-    let blocks: Vec<(usize, f64)> = v[range.clone()]
+    let maxima: Vec<f64> = v[range.clone()]
         .chunks(BLOCK)
-        .enumerate()
-        .map(|(b, c)| (b, c.iter().copied().fold(f64::NEG_INFINITY, f64::max)))
+        .map(|c| c.iter().copied().fold(f64::NEG_INFINITY, f64::max))
         .collect();
-    let mut maxima: Vec<f64> = blocks.iter().map(|b| b.1).collect();
     let floor = if maxima.len() > k {
-        let (_, t, _) = maxima.select_nth_unstable_by(k - 1, |a, b| b.total_cmp(a));
-        *t
+        let mut m = maxima.clone();
+        *m.select_nth_unstable_by(k - 1, |a, b| b.total_cmp(a)).1
     } else {
         f64::NEG_INFINITY
     };
-    let mut heap: BinaryHeap<Reverse<Key>> = BinaryHeap::with_capacity(k + 1);
-    for &(b, max) in &blocks {
-        if max < floor {
+    let below = |x: f64| x.total_cmp(&floor).is_lt();
+    let mut cand: Vec<usize> = Vec::new();
+    for (b, &max) in maxima.iter().enumerate() {
+        if below(max) {
             continue;
         }
         let lo = range.start + b * BLOCK;
-        for i in lo..(lo + BLOCK).min(range.end) {
-            if v[i] < floor {
-                continue;
-            }
-            let key = Key(v[i], Reverse(i));
-            if heap.len() < k {
-                heap.push(Reverse(key));
-            } else if heap.peek().is_some_and(|m| key > m.0) {
-                heap.pop();
-                heap.push(Reverse(key));
-            }
-        }
+        cand.extend((lo..(lo + BLOCK).min(range.end)).filter(|&i| !below(v[i])));
     }
-    heap.into_iter()
-        .map(|Reverse(Key(_, Reverse(i)))| i)
-        .collect()
+    if cand.len() <= k {
+        return cand;
+    }
+    let mut vals: Vec<f64> = cand.iter().map(|&i| v[i]).collect();
+    let t = *vals.select_nth_unstable_by(k - 1, |a, b| b.total_cmp(a)).1;
+    // Every value above t, then the values equal to t by lower index (`cand` is in order).
+    let mut out: Vec<usize> = cand
+        .iter()
+        .copied()
+        .filter(|&i| v[i].total_cmp(&t).is_gt())
+        .collect();
+    let equal = cand.iter().copied().filter(|&i| v[i].total_cmp(&t).is_eq());
+    out.extend(equal.take(k - out.len()));
+    out
 }
 
 /// Where a model parameter of one channel comes from.
@@ -364,43 +349,46 @@ impl Rows {
 
     /// Rows from `n` inputs, filled in parallel over fixed chunks: `fill(range, cols)` writes the
     /// rows it keeps from inputs `range` to the front of its column slices (in the order of
-    /// [`Rows::columns`]) and returns how many it kept; the kept rows are joined in input order.
-    /// The columns are allocated once at full size and compacted in place.
+    /// [`Rows::write`]) and returns how many it kept; the kept rows are joined in input order.
+    /// The columns are allocated once at full size and compacted in place; unweighted rows get
+    /// no √weight column (`fill` is handed an empty slice for it).
     pub fn par_fill<F>(n: usize, weighted: bool, fill: F) -> Rows
     where
         F: Fn(std::ops::Range<usize>, [&mut [f64]; 8]) -> usize + Sync,
     {
         use rayon::prelude::*;
         const CHUNK: usize = 16_384;
-        let mut cols: [Vec<f64>; 8] = std::array::from_fn(|_| vec![0.0; n]);
-        let counts: Vec<usize> = if n <= CHUNK {
-            let [a, b, c, d, e, f, g, h] = &mut cols;
-            vec![fill(0..n, [a, b, c, d, e, f, g, h]).min(n)]
+        let width = |j: usize| if j == 7 && !weighted { 0 } else { n };
+        let mut cols: [Vec<f64>; 8] = std::array::from_fn(|j| vec![0.0; width(j)]);
+        // Each chunk's slice of every column (an absent column: empty slices).
+        let mut parts: Vec<(std::ops::Range<usize>, [&mut [f64]; 8])> = Vec::new();
+        let mut rest: [&mut [f64]; 8] = cols.each_mut().map(|c| c.as_mut_slice());
+        let mut start = 0;
+        while start < n {
+            let len = CHUNK.min(n - start);
+            let part: [&mut [f64]; 8] = std::array::from_fn(|j| {
+                let c = std::mem::take(&mut rest[j]);
+                let (a, b) = c.split_at_mut(len.min(c.len()));
+                rest[j] = b;
+                a
+            });
+            parts.push((start..start + len, part));
+            start += len;
+        }
+        let run = |(range, part): (std::ops::Range<usize>, [&mut [f64]; 8])| {
+            let len = range.len();
+            fill(range, part).min(len)
+        };
+        let counts: Vec<usize> = if parts.len() <= 1 {
+            parts.into_iter().map(run).collect()
         } else {
-            let [a, b, c, d, e, f, g, h] = &mut cols;
-            (
-                a.par_chunks_mut(CHUNK),
-                b.par_chunks_mut(CHUNK),
-                c.par_chunks_mut(CHUNK),
-                d.par_chunks_mut(CHUNK),
-                e.par_chunks_mut(CHUNK),
-                f.par_chunks_mut(CHUNK),
-                g.par_chunks_mut(CHUNK),
-                h.par_chunks_mut(CHUNK),
-            )
-                .into_par_iter()
-                .enumerate()
-                .map(|(k, (a, b, c, d, e, f, g, h))| {
-                    let range = k * CHUNK..(k * CHUNK + a.len());
-                    fill(range, [a, b, c, d, e, f, g, h]).min(a.len())
-                })
-                .collect()
+            parts.into_par_iter().map(run).collect()
         };
         let mut kept = 0;
         for (k, &count) in counts.iter().enumerate() {
             let from = k * CHUNK;
             if from != kept {
-                for col in cols.iter_mut() {
+                for col in cols.iter_mut().filter(|c| !c.is_empty()) {
                     col.copy_within(from..from + count, kept);
                 }
             }
@@ -1057,6 +1045,35 @@ impl TsD3 {
 
 #[cfg(test)]
 mod tests {
+    /// The `k` largest values of a range equal the first `k` of the range sorted by value
+    /// (largest first, ties to the lower index), with many ties and with more blocks of 1,024
+    /// rows than `k` (the block maxima's bound in use) or fewer.
+    #[test]
+    fn largest_matches_a_full_sort() {
+        for (n, k, levels) in [
+            (10_000, 200, 37),
+            (10_000, 50, 1_000_000),
+            (300_000, 100, 5_000),
+            (5, 9, 3),
+            (2_100, 2_100, 7),
+        ] {
+            // A deterministic scramble of `levels` values: many exact ties when levels is small.
+            let v: Vec<f64> = (0..n)
+                .map(|i: usize| ((i.wrapping_mul(2_654_435_761) >> 7) % levels) as f64 * 0.25 - 3.0)
+                .collect();
+            for range in [0..n, n / 3..n - n / 5] {
+                let mut want: Vec<usize> = range.clone().collect();
+                want.sort_by(|&a, &b| v[b].total_cmp(&v[a]).then(a.cmp(&b)));
+                want.truncate(k);
+                want.sort_unstable();
+                let mut got = super::largest(&v, range.clone(), k);
+                got.sort_unstable();
+                assert_eq!(got, want, "n {n} k {k} range {range:?}");
+            }
+        }
+        assert!(super::largest(&[1.0, 2.0], 0..2, 0).is_empty());
+    }
+
     /// The pixel value against the sRGB standard's own numbers (IEC 61966-2-1: 0.5 linear is
     /// 0.735357 encoded, 0.0031308 is 0.0404500, 0.2 is 0.484529), saturation at 1 (a PNG's
     /// 255) for radiance well above 1, and the derivative against central differences,

@@ -144,7 +144,8 @@ pub fn solid_angle_weights(ds: &Dataset) -> Vec<f64> {
 }
 
 /// Rows of samples `range` of channel values `vals` written to the front of `cols` (the
-/// layout of [`Rows::write`]); returns how many were kept. [`LANES`] samples at a time, so
+/// layout of [`Rows::write`]; an empty √weight column is left unwritten); returns how many
+/// were kept. [`LANES`] samples at a time, so
 /// the trigonometry and logarithms vectorise; compiled for AVX-512 and AVX2 as well and picked
 /// at run time.
 #[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
@@ -204,14 +205,14 @@ pub(super) fn fill_rows(
         }
         if keep.iter().all(|&x| x) {
             // The usual case: the whole block is kept, written a lane vector at a time.
-            for (c, x) in cols.iter_mut().zip(&col) {
+            for (c, x) in cols.iter_mut().zip(&col).filter(|(c, _)| !c.is_empty()) {
                 c[kept..kept + LANES].copy_from_slice(x);
             }
             kept += LANES;
         } else {
             for l in 0..n {
                 if keep[l] {
-                    for (c, x) in cols.iter_mut().zip(&col) {
+                    for (c, x) in cols.iter_mut().zip(&col).filter(|(c, _)| !c.is_empty()) {
                         c[kept] = x[l];
                     }
                     kept += 1;
