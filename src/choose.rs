@@ -617,15 +617,11 @@ fn render_with(scene: &Scene, material: crate::render::Material) -> (Image, f64)
     (img, t.elapsed().as_secs_f64())
 }
 
-fn errors(reference: &Image, test: &Image, mask: &[bool]) -> (Summary, Vec<f32>, Summary, f64) {
-    errors_against(&Prepared::new(reference, mask), test, mask)
-}
-
-/// A reference image with what every comparison against it needs computed once: its 8-bit
-/// sRGB pixels and its ITP over the mask.
+/// A reference image with what every comparison against it needs computed once: its
+/// LDR-ꟻLIP side (8-bit sRGB, filtered colours and features) and its ITP over the mask.
 struct Prepared<'a> {
     image: &'a Image,
-    srgb: Vec<u8>,
+    flip: compare::FlipReference,
     itp: Vec<[f64; 3]>,
 }
 
@@ -633,24 +629,30 @@ impl<'a> Prepared<'a> {
     fn new(image: &'a Image, mask: &[bool]) -> Prepared<'a> {
         Prepared {
             image,
-            srgb: crate::render::to_srgb8(image),
+            flip: compare::FlipReference::new(
+                &crate::render::to_srgb8(image),
+                image.width,
+                image.height,
+                compare::PIXELS_PER_DEGREE,
+            ),
             itp: compare::itp_masked(&image.pixels, mask),
         }
     }
+
+    /// Per-pixel LDR-ꟻLIP of `test` against the reference (on the 8-bit sRGB images).
+    fn flip(&self, test: &Image) -> Vec<f32> {
+        self.flip.against(&crate::render::to_srgb8(test))
+    }
 }
 
-/// [`errors`] against a prepared reference (the same numbers).
+/// The errors of `test` against a prepared reference over `mask`: ꟻLIP's summary and map,
+/// ΔE_ITP's summary, RMSE.
 fn errors_against(
     reference: &Prepared,
     test: &Image,
     mask: &[bool],
 ) -> (Summary, Vec<f32>, Summary, f64) {
-    let flip = compare::flip(
-        &reference.srgb,
-        &crate::render::to_srgb8(test),
-        reference.image.width,
-        reference.image.height,
-    );
+    let flip = reference.flip(test);
     let de =
         compare::delta_e_itp_against(&reference.image.pixels, &reference.itp, &test.pixels, mask);
     let f = compare::summarise(&flip, mask, FLIP_LEVEL);
@@ -952,10 +954,13 @@ fn run_case(
     // candidates: both deterministic, so the order of work is free.
     let (cross, done) = rayon::join(
         || {
-            let cross =
-                verdict::cross_validate(&case.scene, &ref_img, &reference.folds, &mask, &|t| {
-                    material(reference.fill, Some(t))
-                });
+            let cross = verdict::cross_validate_against(
+                &case.scene,
+                &prepared,
+                &reference.folds,
+                &mask,
+                &|t| material(reference.fill, Some(t)),
+            );
             let (p99, mean) = cross
                 .0
                 .as_ref()
