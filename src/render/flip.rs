@@ -276,74 +276,146 @@ struct Planes {
 
 /// [`Planes`] of the window `win` (x0, y0, x1, y1 inclusive; row by row) of a `w`×`h` image
 /// whose YCxCz `img` covers the window widened by the filters' reach (clipped to the image).
+///
+/// Each pass sums a pixel's taps in NVIDIA's order, from 0, with the column or row each tap
+/// reads clamped to the image; the loops run over the taps outside and the pixels of a row
+/// inside (the same sums, vectorised).
 fn planes(img: &Patch, w: usize, h: usize, win: [usize; 4], f: &Filters) -> Planes {
     let [x0, y0, x1, y1] = win;
     let cw = x1 + 1 - x0;
-    let clampx = |x: isize| x.clamp(0, w as isize - 1) as usize;
+    let rows = y1 + 1 - y0;
+    let r = f.reach();
     let clampy = |y: isize| y.clamp(0, h as isize - 1) as usize;
+    // A row of the image from column x0 − r to x1 + r (clamped to the image), one channel
+    // each: Y, Cx, Cz and the normalised luminance the features read.
+    let padded = |y: usize| {
+        let mut p = [
+            Vec::with_capacity(cw + 2 * r),
+            Vec::with_capacity(cw + 2 * r),
+            Vec::with_capacity(cw + 2 * r),
+            Vec::with_capacity(cw + 2 * r),
+        ];
+        for j in 0..cw + 2 * r {
+            let x = (x0 as isize + j as isize - r as isize).clamp(0, w as isize - 1) as usize;
+            let c = img.at(x, y);
+            p[0].push(c[0]);
+            p[1].push(c[1]);
+            p[2].push(c[2]);
+            p[3].push(c[0] * (1.0f32 / 116.0) + 16.0f32 / 116.0);
+        }
+        p
+    };
     // Colour: x pass on the rows the y pass reads, then the y pass.
-    let rc = (f.ycx.len() / 2) as isize;
-    let (ry0, ry1) = (clampy(y0 as isize - rc), clampy(y1 as isize + rc));
-    let mut inter = Vec::with_capacity((ry1 + 1 - ry0) * cw);
-    for y in ry0..=ry1 {
-        for x in x0..=x1 {
-            let (mut ycx, mut cz) = ([0.0f32; 2], [0.0f32; 2]);
+    let rc = f.ycx.len() / 2;
+    let (ry0, ry1) = (
+        clampy(y0 as isize - rc as isize),
+        clampy(y1 as isize + rc as isize),
+    );
+    let n = (ry1 + 1 - ry0) * cw;
+    let mut inter = [
+        vec![0.0f32; n],
+        vec![0.0f32; n],
+        vec![0.0f32; n],
+        vec![0.0f32; n],
+    ];
+    // Features: the same on their own rows (first and second derivative in x, Gaussian for
+    // the y pass).
+    let rf = f.feature.len() / 2;
+    let (fy0, fy1) = (
+        clampy(y0 as isize - rf as isize),
+        clampy(y1 as isize + rf as isize),
+    );
+    let nf = (fy1 + 1 - fy0) * cw;
+    let mut finter = [vec![0.0f32; nf], vec![0.0f32; nf], vec![0.0f32; nf]];
+    for y in ry0.min(fy0)..=ry1.max(fy1) {
+        let p = padded(y);
+        if (ry0..=ry1).contains(&y) {
+            let o = (y - ry0) * cw;
+            let [i0, i1, i2, i3] = &mut inter;
+            let (i0, i1, i2, i3) = (
+                &mut i0[o..o + cw],
+                &mut i1[o..o + cw],
+                &mut i2[o..o + cw],
+                &mut i3[o..o + cw],
+            );
             for (k, (a, b)) in f.ycx.iter().zip(&f.cz).enumerate() {
-                let c = img.at(clampx(x as isize + k as isize - rc), y);
-                ycx[0] += a[0] * c[0];
-                ycx[1] += a[1] * c[1];
-                cz[0] += b[0] * c[2];
-                cz[1] += b[1] * c[2];
+                let s = r - rc + k;
+                let (py, pcx, pcz) = (&p[0][s..s + cw], &p[1][s..s + cw], &p[2][s..s + cw]);
+                for j in 0..cw {
+                    i0[j] += a[0] * py[j];
+                    i1[j] += a[1] * pcx[j];
+                    i2[j] += b[0] * pcz[j];
+                    i3[j] += b[1] * pcz[j];
+                }
             }
-            inter.push([ycx[0], ycx[1], cz[0], cz[1]]);
+        }
+        if (fy0..=fy1).contains(&y) {
+            let o = (y - fy0) * cw;
+            let [dx, ddx, g] = &mut finter;
+            let (dx, ddx, g) = (&mut dx[o..o + cw], &mut ddx[o..o + cw], &mut g[o..o + cw]);
+            for (k, wt) in f.feature.iter().enumerate() {
+                let s = r - rf + k;
+                let v = &p[3][s..s + cw];
+                for j in 0..cw {
+                    dx[j] += wt[1] * v[j];
+                    ddx[j] += wt[2] * v[j];
+                    g[j] += wt[0] * v[j];
+                }
+            }
         }
     }
-    let mut lab = Vec::with_capacity(cw * (y1 + 1 - y0));
+    let mut lab = Vec::with_capacity(cw * rows);
+    let mut features = Vec::with_capacity(cw * rows);
+    let mut s = [
+        vec![0.0f32; cw],
+        vec![0.0f32; cw],
+        vec![0.0f32; cw],
+        vec![0.0f32; cw],
+    ];
+    let mut d = [
+        vec![0.0f32; cw],
+        vec![0.0f32; cw],
+        vec![0.0f32; cw],
+        vec![0.0f32; cw],
+    ];
     for y in y0..=y1 {
-        for x in 0..cw {
-            let mut s = [0.0f32; 4];
+        s.iter_mut().chain(&mut d).for_each(|v| v.fill(0.0));
+        {
+            let [s0, s1, s2, s3] = &mut s;
             for (k, (a, b)) in f.ycx.iter().zip(&f.cz).enumerate() {
-                let c = inter[(clampy(y as isize + k as isize - rc) - ry0) * cw + x];
-                s[0] += a[0] * c[0];
-                s[1] += a[1] * c[1];
-                s[2] += b[0] * c[2];
-                s[3] += b[1] * c[3];
+                let o = (clampy(y as isize + k as isize - rc as isize) - ry0) * cw;
+                let (i0, i1) = (&inter[0][o..o + cw], &inter[1][o..o + cw]);
+                let (i2, i3) = (&inter[2][o..o + cw], &inter[3][o..o + cw]);
+                for j in 0..cw {
+                    s0[j] += a[0] * i0[j];
+                    s1[j] += a[1] * i1[j];
+                    s2[j] += b[0] * i2[j];
+                    s3[j] += b[1] * i3[j];
+                }
             }
-            let rgb = xyz_to_linear_rgb(ycxcz_to_xyz([s[0], s[1], s[2] + s[3]])).map(clamp01);
+        }
+        {
+            let [dx, ddx, dy, ddy] = &mut d;
+            for (k, wt) in f.feature.iter().enumerate() {
+                let o = (clampy(y as isize + k as isize - rf as isize) - fy0) * cw;
+                let (ix, iddx, ig) = (
+                    &finter[0][o..o + cw],
+                    &finter[1][o..o + cw],
+                    &finter[2][o..o + cw],
+                );
+                for j in 0..cw {
+                    dx[j] += wt[0] * ix[j];
+                    ddx[j] += wt[0] * iddx[j];
+                    dy[j] += wt[1] * ig[j];
+                    ddy[j] += wt[2] * ig[j];
+                }
+            }
+        }
+        for j in 0..cw {
+            let c = [s[0][j], s[1][j], s[2][j] + s[3][j]];
+            let rgb = xyz_to_linear_rgb(ycxcz_to_xyz(c)).map(clamp01);
             lab.push(hunt(xyz_to_lab(linear_rgb_to_xyz(rgb))));
-        }
-    }
-    // Features of the luminance normalised to [0, 1]: x pass (first and second derivative in
-    // x, Gaussian for the y pass), then the y pass.
-    let rf = (f.feature.len() / 2) as isize;
-    let (ry0, ry1) = (clampy(y0 as isize - rf), clampy(y1 as isize + rf));
-    let one_over_116 = 1.0f32 / 116.0;
-    let sixteen_over_116 = 16.0f32 / 116.0;
-    let mut inter = Vec::with_capacity((ry1 + 1 - ry0) * cw);
-    for y in ry0..=ry1 {
-        for x in x0..=x1 {
-            let (mut dx, mut ddx, mut g) = (0.0f32, 0.0f32, 0.0f32);
-            for (k, wt) in f.feature.iter().enumerate() {
-                let c = img.at(clampx(x as isize + k as isize - rf), y);
-                let v = c[0] * one_over_116 + sixteen_over_116;
-                dx += wt[1] * v;
-                ddx += wt[2] * v;
-                g += wt[0] * v;
-            }
-            inter.push([dx, ddx, g]);
-        }
-    }
-    let mut features = Vec::with_capacity(cw * (y1 + 1 - y0));
-    for y in y0..=y1 {
-        for x in 0..cw {
-            let (mut dx, mut ddx, mut dy, mut ddy) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
-            for (k, wt) in f.feature.iter().enumerate() {
-                let c = inter[(clampy(y as isize + k as isize - rf) - ry0) * cw + x];
-                dx += wt[0] * c[0];
-                ddx += wt[0] * c[1];
-                dy += wt[1] * c[2];
-                ddy += wt[2] * c[2];
-            }
+            let (dx, ddx, dy, ddy) = (d[0][j], d[1][j], d[2][j], d[3][j]);
             features.push([(dx * dx + dy * dy).sqrt(), (ddx * ddx + ddy * ddy).sqrt()]);
         }
     }
