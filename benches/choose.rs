@@ -1,9 +1,12 @@
 //! Render cost of the Figure 7 front-lit sphere at 512² with each candidate model and with a
 //! measured material (MERL alumina-oxide, green, resampled onto its half/difference table):
 //! the tie-break order of `choose` (`RENDER_COST_ORDER`) and the README's "a measured material
-//! costs no more than 3× a fitted model".
+//! costs no more than 3× a fitted model". Also LDR-ꟻLIP of one candidate's render against the
+//! reference at 512² (`flip_512`): NVIDIA's C++ through `nv-flip` (both images converted and
+//! filtered on every call, as `choose` did before), the Rust port preparing the reference on
+//! each call, and against a reference prepared once (what `choose` does now).
 //!
-//! Run: `cargo bench --bench choose`.
+//! Run: `cargo bench --bench choose` (`-- flip` for the ꟻLIP group alone).
 
 use brdfit::choose::{RENDER_COST_ORDER, fig7_cases, model_name};
 use brdfit::fit::{self, FitOptions};
@@ -51,5 +54,57 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+fn bench_flip(c: &mut Criterion) {
+    use brdfit::render::compare::{FlipReference, PIXELS_PER_DEGREE};
+    use brdfit::render::to_srgb8;
+    let ds = brdfit::load(
+        std::path::Path::new("data/merl-alumina-oxide.csv"),
+        &Default::default(),
+    )
+    .unwrap();
+    let ds = brdfit::data::representative_channel(&ds).unwrap().0;
+    let mut g = c.benchmark_group("flip_512");
+    g.sample_size(10).measurement_time(Duration::from_secs(3));
+    for case in fig7_cases(512) {
+        let fitted = |kind, dist| {
+            let mut o = FitOptions::new(kind);
+            o.dist = dist;
+            fit::fit(&ds, &o).unwrap().remove(0).model_for(0)
+        };
+        let fill = fitted(
+            brdfit::model::ModelKind::TorranceSparrow,
+            brdfit::model::Distribution::D3,
+        );
+        let table = Arc::new(Tabulated::resample(&ds, Dims::for_samples(ds.len()), fill));
+        let mut s = case.scene.clone();
+        s.materials[0].model = fill;
+        s.materials[0].measured = Some(table);
+        let reference = s.render(&|| {});
+        s.materials[0].measured = None;
+        s.materials[0].model = fitted(
+            brdfit::model::ModelKind::Phong,
+            brdfit::model::Distribution::D3,
+        );
+        let test = s.render(&|| {});
+        let (r, t) = (to_srgb8(&reference), to_srgb8(&test));
+        let (w, h) = (reference.width, reference.height);
+        g.bench_function(format!("{}/nv-flip", case.name), |b| {
+            b.iter(|| {
+                let ri = nv_flip::FlipImageRgb8::with_data(w, h, &r);
+                let ti = nv_flip::FlipImageRgb8::with_data(w, h, &t);
+                nv_flip::flip(ri, ti, PIXELS_PER_DEGREE).to_vec()
+            })
+        });
+        g.bench_function(format!("{}/port", case.name), |b| {
+            b.iter(|| brdfit::render::compare::flip(&r, &t, w, h))
+        });
+        let prepared = FlipReference::new(&r, w, h, PIXELS_PER_DEGREE);
+        g.bench_function(format!("{}/prepared", case.name), |b| {
+            b.iter(|| prepared.against(&t))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench, bench_flip);
 criterion_main!(benches);

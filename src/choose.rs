@@ -617,15 +617,11 @@ fn render_with(scene: &Scene, material: crate::render::Material) -> (Image, f64)
     (img, t.elapsed().as_secs_f64())
 }
 
-fn errors(reference: &Image, test: &Image, mask: &[bool]) -> (Summary, Vec<f32>, Summary, f64) {
-    errors_against(&Prepared::new(reference, mask), test, mask)
-}
-
-/// A reference image with what every comparison against it needs computed once: its 8-bit
-/// sRGB pixels and its ITP over the mask.
+/// A reference image with what every comparison against it needs computed once: its
+/// LDR-ꟻLIP side (8-bit sRGB, filtered colours and features) and its ITP over the mask.
 struct Prepared<'a> {
     image: &'a Image,
-    srgb: Vec<u8>,
+    flip: compare::FlipReference,
     itp: Vec<[f64; 3]>,
 }
 
@@ -633,24 +629,30 @@ impl<'a> Prepared<'a> {
     fn new(image: &'a Image, mask: &[bool]) -> Prepared<'a> {
         Prepared {
             image,
-            srgb: crate::render::to_srgb8(image),
+            flip: compare::FlipReference::new(
+                &crate::render::to_srgb8(image),
+                image.width,
+                image.height,
+                compare::PIXELS_PER_DEGREE,
+            ),
             itp: compare::itp_masked(&image.pixels, mask),
         }
     }
+
+    /// Per-pixel LDR-ꟻLIP of `test` against the reference (on the 8-bit sRGB images).
+    fn flip(&self, test: &Image) -> Vec<f32> {
+        self.flip.against(&crate::render::to_srgb8(test))
+    }
 }
 
-/// [`errors`] against a prepared reference (the same numbers).
+/// The errors of `test` against a prepared reference over `mask`: ꟻLIP's summary and map,
+/// ΔE_ITP's summary, RMSE.
 fn errors_against(
     reference: &Prepared,
     test: &Image,
     mask: &[bool],
 ) -> (Summary, Vec<f32>, Summary, f64) {
-    let flip = compare::flip(
-        &reference.srgb,
-        &crate::render::to_srgb8(test),
-        reference.image.width,
-        reference.image.height,
-    );
+    let flip = reference.flip(test);
     let de =
         compare::delta_e_itp_against(&reference.image.pixels, &reference.itp, &test.pixels, mask);
     let f = compare::summarise(&flip, mask, FLIP_LEVEL);
@@ -855,13 +857,20 @@ impl Reference {
             .unwrap_or(0);
         let base = bases[best];
         let fill = base.model_for(0);
-        let t = Instant::now();
         let dims = Dims::for_samples(ds.len());
-        let table = Arc::new(crate::render::reconstruct::reconstruct(ds, dims, fill));
-        let seconds = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        let folds = verdict::folds(ds, dims, (base.model, base.dist), fill);
-        let fold_seconds = t.elapsed().as_secs_f64();
+        // The table beside its cross-validation folds (each deterministic).
+        let ((table, seconds), (folds, fold_seconds)) = rayon::join(
+            || {
+                let t = Instant::now();
+                let table = Arc::new(crate::render::reconstruct::reconstruct(ds, dims, fill));
+                (table, t.elapsed().as_secs_f64())
+            },
+            || {
+                let t = Instant::now();
+                let folds = verdict::folds(ds, dims, (base.model, base.dist), fill);
+                (folds, t.elapsed().as_secs_f64())
+            },
+        );
         let measured = table.fill_share() <= MAX_FILL_SHARE;
         Reference {
             table,
@@ -952,10 +961,13 @@ fn run_case(
     // candidates: both deterministic, so the order of work is free.
     let (cross, done) = rayon::join(
         || {
-            let cross =
-                verdict::cross_validate(&case.scene, &ref_img, &reference.folds, &mask, &|t| {
-                    material(reference.fill, Some(t))
-                });
+            let cross = verdict::cross_validate_against(
+                &case.scene,
+                &prepared,
+                &reference.folds,
+                &mask,
+                &|t| material(reference.fill, Some(t)),
+            );
             let (p99, mean) = cross
                 .0
                 .as_ref()
@@ -1063,10 +1075,17 @@ fn candidates(
                 refit_on_pixels(samples, log_fit, &g, exposure(&case.scene), opts.verify)
             };
             let fit_seconds = t.elapsed().as_secs_f64();
-            let (img, render_seconds) = render_with(&case.scene, material(fitted.model_for(0)));
-            let (global_img, _) = render_with(&case.scene, material(global[k].model_for(0)));
-            let scene_fit = Judged::new(prepared, img, mask, fitted.usable());
-            let global_fit = Judged::new(prepared, global_img, mask, global[k].usable());
+            // The two fits rendered and judged side by side.
+            let ((render_seconds, scene_fit), global_fit) = rayon::join(
+                || {
+                    let (img, seconds) = render_with(&case.scene, material(fitted.model_for(0)));
+                    (seconds, Judged::new(prepared, img, mask, fitted.usable()))
+                },
+                || {
+                    let (img, _) = render_with(&case.scene, material(global[k].model_for(0)));
+                    Judged::new(prepared, img, mask, global[k].usable())
+                },
+            );
             let scene_p99 = scene_fit.flip.p99;
             let global_p99 = global_fit.flip.p99;
             let used = used_fit(&scene_fit, &global_fit, opts.threshold.metric);
@@ -1124,41 +1143,18 @@ pub fn write(
     images: &[CaseImages],
 ) -> anyhow::Result<Vec<std::path::PathBuf>> {
     use crate::output::write_bytes_atomic;
-    let mut wrote = Vec::new();
-    for (case, imgs) in result.cases.iter().zip(images) {
-        let sub = dir.join(&case.case);
-        crate::output::create_dir(&sub)?;
-        // The renders' PNG and EXR encodings in parallel; the paths in render order.
-        let saved = imgs
-            .renders
-            .par_iter()
-            .enumerate()
-            .map(|(k, (name, img))| {
-                crate::render::save(
-                    img,
-                    &sub.join(if k == 0 { "measured" } else { name.as_str() }),
-                )
-            })
-            .collect::<anyhow::Result<Vec<_>>>()?;
-        wrote.extend(saved.into_iter().flatten());
-        if case.verdict == Verdict::Undetermined {
-            let path = sub.join("reference-error.png");
-            write_bytes_atomic(&path, &reference_error_png(imgs, &result.threshold)?)?;
-            wrote.push(path);
-        }
-        let sheet = sub.join("sheet.png");
-        write_bytes_atomic(&sheet, &contact_sheet(case, imgs, &result.threshold)?)?;
-        wrote.push(sheet);
-        let (svg, png) = crate::plot::save(
-            &TradeoffChart {
-                case: case.clone(),
-                threshold: result.threshold.clone(),
-            },
-            &sub.join("chart"),
-        )?;
-        wrote.push(svg);
-        wrote.push(png);
+    // The cases' directories in order (the list of directories created stays in case
+    // order), then each case's files in parallel; the paths in case order.
+    for case in &result.cases {
+        crate::output::create_dir(&dir.join(&case.case))?;
     }
+    let per_case = result
+        .cases
+        .par_iter()
+        .zip(images.par_iter())
+        .map(|(case, imgs)| write_case(&dir.join(&case.case), case, imgs, &result.threshold))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let mut wrote: Vec<std::path::PathBuf> = per_case.into_iter().flatten().collect();
     let json = dir.join("choose.json");
     let mut text = serde_json::to_string_pretty(result)?;
     text.push('\n');
@@ -1167,6 +1163,48 @@ pub fn write(
     let md = dir.join("choose.md");
     write_bytes_atomic(&md, markdown(result).as_bytes())?;
     wrote.push(md);
+    Ok(wrote)
+}
+
+/// One case's files in `sub` (renders, the reference's error map when undetermined, sheet,
+/// chart); the paths written, in order.
+fn write_case(
+    sub: &std::path::Path,
+    case: &CaseResult,
+    imgs: &CaseImages,
+    threshold: &ThresholdJson,
+) -> anyhow::Result<Vec<std::path::PathBuf>> {
+    use crate::output::write_bytes_atomic;
+    // The renders' PNG and EXR encodings in parallel; the paths in render order.
+    let saved = imgs
+        .renders
+        .par_iter()
+        .enumerate()
+        .map(|(k, (name, img))| {
+            crate::render::save(
+                img,
+                &sub.join(if k == 0 { "measured" } else { name.as_str() }),
+            )
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let mut wrote: Vec<std::path::PathBuf> = saved.into_iter().flatten().collect();
+    if case.verdict == Verdict::Undetermined {
+        let path = sub.join("reference-error.png");
+        write_bytes_atomic(&path, &reference_error_png(imgs, threshold)?)?;
+        wrote.push(path);
+    }
+    let sheet = sub.join("sheet.png");
+    write_bytes_atomic(&sheet, &contact_sheet(case, imgs, threshold)?)?;
+    wrote.push(sheet);
+    let (svg, png) = crate::plot::save(
+        &TradeoffChart {
+            case: case.clone(),
+            threshold: threshold.clone(),
+        },
+        &sub.join("chart"),
+    )?;
+    wrote.push(svg);
+    wrote.push(png);
     Ok(wrote)
 }
 

@@ -233,7 +233,7 @@ pub fn spacings(ds: &Dataset) -> (Option<f64>, Option<f64>, Option<f64>) {
 }
 
 /// The reference's own error in `scene`: each fold's table rendered (as `material` makes it)
-/// and compared with the `reference` image by LDR-ꟻLIP over `mask`; the largest p99 and mean
+/// and compared with the (prepared) `reference` image by LDR-ꟻLIP over `mask`; the largest p99 and mean
 /// over the folds, the per-pixel largest error, and the kind of the worst fold. `None` with
 /// no folds.
 pub fn cross_validate(
@@ -241,13 +241,34 @@ pub fn cross_validate(
     reference: &Image,
     folds: &[Fold],
     mask: &[bool],
-    material: &dyn Fn(Arc<Tabulated>) -> Material,
+    material: &(dyn Fn(Arc<Tabulated>) -> Material + Sync),
 ) -> (Option<ReferenceError>, Vec<f32>, Option<FoldKind>) {
-    let mut map_max = vec![0f32; reference.pixels.len()];
+    let prepared = super::Prepared::new(reference, mask);
+    cross_validate_against(scene, &prepared, folds, mask, material)
+}
+
+/// [`cross_validate`] against a reference prepared once for all its comparisons.
+pub(super) fn cross_validate_against(
+    scene: &Scene,
+    reference: &super::Prepared,
+    folds: &[Fold],
+    mask: &[bool],
+    material: &(dyn Fn(Arc<Tabulated>) -> Material + Sync),
+) -> (Option<ReferenceError>, Vec<f32>, Option<FoldKind>) {
+    let mut map_max = vec![0f32; reference.image.pixels.len()];
     let (mut p99, mut mean, mut worst) = (0.0f64, 0.0f64, None);
-    for fold in folds {
-        let (img, _) = super::render_with(scene, material(fold.table.clone()));
-        let (f, map, _, _) = super::errors(reference, &img, mask);
+    // The folds rendered and compared in parallel (each deterministic), then taken in order.
+    use rayon::prelude::*;
+    let judged: Vec<_> = folds
+        .par_iter()
+        .map(|fold| {
+            let (img, _) = super::render_with(scene, material(fold.table.clone()));
+            let map = reference.flip(&img);
+            let f = crate::render::compare::summarise(&map, mask, super::FLIP_LEVEL);
+            (f, map)
+        })
+        .collect();
+    for (fold, (f, map)) in folds.iter().zip(judged) {
         let m = crate::render::compare::summarise(&map, &[], super::FLIP_LEVEL).mean;
         if f.p99 > p99 || worst.is_none() {
             worst = Some(fold.kind);

@@ -1,8 +1,8 @@
 //! Image error: how far a rendering is from a reference, per pixel and over an object.
 //!
 //! - ꟻLIP (Andersson et al. 2020, "FLIP: A Difference Evaluator for Alternating Images"), LDR
-//!   version, through NVIDIA's implementation (the `nv-flip` crate), on 8-bit sRGB images
-//!   as written to PNG, at [`PIXELS_PER_DEGREE`].
+//!   version, NVIDIA's implementation ported to Rust ([`super::flip`], the `nv-flip` crate
+//!   its test peer), on 8-bit sRGB images as written to PNG, at [`PIXELS_PER_DEGREE`].
 //! - ΔE_ITP (ITU-R BT.2124-0, 2019), on linear BT.709 images shown on a display whose white
 //!   (linear 1.0) is [`DISPLAY_WHITE_NITS`]; 1 is about one just-noticeable difference.
 //! - RMSE of linear radiance.
@@ -14,68 +14,14 @@ pub const PIXELS_PER_DEGREE: f32 = nv_flip::DEFAULT_PIXELS_PER_DEGREE;
 /// white (ITU-R BT.2035 uses 100 cd/m²). Values above 1 are clipped as a display clips them.
 pub const DISPLAY_WHITE_NITS: f64 = 100.0;
 
-/// Per-pixel LDR-ꟻLIP error in [0, 1] between two 8-bit sRGB images (RGB, row-major).
-///
-/// Computed on the smallest window that holds every pixel where the images differ, widened by
-/// twice [`flip_reach`] (clipped to the image), and 0 elsewhere: the same numbers as the whole
-/// image gives, at the cost of the window (an edge-lit crescent is a small part of its image).
-/// NVIDIA's ꟻLIP filters separably with clamp-to-edge borders, summing each kernel in a fixed
-/// order, so a pixel within the reach of a difference reads only pixels inside the window
-/// (or the image's own border, clamped alike); a pixel beyond it sees equal neighbourhoods in
-/// both images, equal filtered values, a colour and a feature difference of 0, and ꟻLIP 0^1 = 0.
+pub use super::flip::FlipReference;
+
+/// Per-pixel LDR-ꟻLIP error in [0, 1] between two 8-bit sRGB images (RGB, row-major), at
+/// [`PIXELS_PER_DEGREE`]: NVIDIA's numbers ([`super::flip`]), computed around the pixels where
+/// the images differ. A reference compared with many images is better prepared once
+/// ([`FlipReference::new`]).
 pub fn flip(reference: &[u8], test: &[u8], width: u32, height: u32) -> Vec<f32> {
-    let (w, h) = (width as usize, height as usize);
-    let mut window: Option<[usize; 4]> = None;
-    for y in 0..h {
-        for x in 0..w {
-            let i = 3 * (y * w + x);
-            if reference[i..i + 3] != test[i..i + 3] {
-                let b = window.get_or_insert([x, y, x, y]);
-                *b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
-            }
-        }
-    }
-    let Some([x0, y0, x1, y1]) = window else {
-        return vec![0.0; w * h];
-    };
-    let m = 2 * flip_reach(PIXELS_PER_DEGREE);
-    let (x0, y0) = (x0.saturating_sub(m), y0.saturating_sub(m));
-    let (x1, y1) = ((x1 + m).min(w - 1), (y1 + m).min(h - 1));
-    let (cw, ch) = (x1 + 1 - x0, y1 + 1 - y0);
-    if (cw, ch) == (w, h) {
-        return flip_whole(reference, test, width, height);
-    }
-    let crop = |img: &[u8]| -> Vec<u8> {
-        (y0..=y1)
-            .flat_map(|y| img[3 * (y * w + x0)..3 * (y * w + x1 + 1)].iter().copied())
-            .collect()
-    };
-    let part = flip_whole(&crop(reference), &crop(test), cw as u32, ch as u32);
-    let mut map = vec![0.0f32; w * h];
-    for (k, row) in part.chunks_exact(cw).enumerate() {
-        let o = (y0 + k) * w + x0;
-        map[o..o + cw].copy_from_slice(row);
-    }
-    map
-}
-
-/// LDR-ꟻLIP of two whole images through NVIDIA's implementation.
-fn flip_whole(reference: &[u8], test: &[u8], width: u32, height: u32) -> Vec<f32> {
-    let r = nv_flip::FlipImageRgb8::with_data(width, height, reference);
-    let t = nv_flip::FlipImageRgb8::with_data(width, height, test);
-    nv_flip::flip(r, t, PIXELS_PER_DEGREE).to_vec()
-}
-
-/// How far (pixels) ꟻLIP's filters reach at `ppd` pixels per degree, one more than the larger
-/// of NVIDIA's two radii: the colour filter's ⌈3 √(b_max / 2π²) ppd⌉ with the largest scale
-/// parameter b_max = 0.04 (Andersson et al. 2020, Table 1), the feature filter's ⌈3 · ½ w ppd⌉
-/// with w = 0.082 (10 and 9 at the default ≈ 67).
-pub fn flip_reach(ppd: f32) -> usize {
-    let ppd = f64::from(ppd);
-    let pi2 = std::f64::consts::PI * std::f64::consts::PI;
-    let colour = (3.0 * (0.04 / (2.0 * pi2)).sqrt() * ppd).ceil();
-    let feature = (3.0 * 0.5 * 0.082 * ppd).ceil();
-    colour.max(feature) as usize + 1
+    FlipReference::new(reference, width, height, PIXELS_PER_DEGREE).against(test)
 }
 
 /// SMPTE ST 2084 (PQ) inverse EOTF of an absolute luminance in cd/m², as BT.2100 gives it.
@@ -256,52 +202,6 @@ mod tests {
         // Symmetric.
         let (a, b) = ([0.2, 0.5, 0.1], [0.25, 0.4, 0.3]);
         assert_eq!(delta_e_itp(a, b), delta_e_itp(b, a));
-    }
-
-    /// Random 8-bit images of `w`×`h`: `test` equals `reference` (itself random, not a
-    /// constant background) except in the pixels `patch` (x0, y0, x1, y1, inclusive).
-    fn images(w: usize, h: usize, patch: [usize; 4], seed: u64) -> (Vec<u8>, Vec<u8>) {
-        use rand::{Rng, SeedableRng};
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        let reference: Vec<u8> = (0..3 * w * h).map(|_| rng.random()).collect();
-        let mut test = reference.clone();
-        for y in patch[1]..=patch[3] {
-            for x in patch[0]..=patch[2] {
-                for c in 0..3 {
-                    test[3 * (y * w + x) + c] = rng.random();
-                }
-            }
-        }
-        (reference, test)
-    }
-
-    /// The windowed ꟻLIP gives the very numbers of NVIDIA's whole-image computation (the peer):
-    /// a difference in the middle, at a corner and at an edge of a textured image, a single
-    /// pixel, and identical images (all 0).
-    #[test]
-    fn windowed_flip_equals_whole_image_flip() {
-        let (w, h) = (150usize, 120usize);
-        for (k, patch) in [
-            [60, 50, 80, 65],
-            [0, 0, 4, 3],
-            [140, 30, 149, 40],
-            [75, 60, 75, 60],
-        ]
-        .into_iter()
-        .enumerate()
-        {
-            let (r, t) = images(w, h, patch, k as u64);
-            let whole = flip_whole(&r, &t, w as u32, h as u32);
-            assert!(whole.iter().any(|&e| e > 0.0));
-            assert_eq!(flip(&r, &t, w as u32, h as u32), whole, "patch {patch:?}");
-        }
-        let (r, _) = images(w, h, [0, 0, 0, 0], 9);
-        assert_eq!(
-            flip(&r, &r, w as u32, h as u32),
-            flip_whole(&r, &r, w as u32, h as u32)
-        );
-        // NVIDIA's radii at the default 67.02 pixels per degree are 10 and 9.
-        assert_eq!(flip_reach(PIXELS_PER_DEGREE), 11);
     }
 
     /// ΔE_ITP against a reference's precomputed ITP is, pixel for pixel, `delta_e_itp` of

@@ -20,6 +20,7 @@
 //!   f32 OpenEXR and 8-bit sRGB PNG output; deterministic.
 
 pub mod compare;
+pub mod flip;
 pub mod measured;
 pub mod reconstruct;
 pub mod scene;
