@@ -88,6 +88,12 @@ compare() {
     $PYTHON "$PEER" "$csv" --loss log --start "$s" --repeat "$REPEAT" --channel "$ch" > "$TMP/shared.json" 2> /dev/null
     peers+=(--peer "scipy_fit.py (shared)=$TMP/shared.json")
   fi
+  # The peer's analytic Jacobian against central differences at the start (on files up to
+  # 100k rows: the check costs two residual passes per parameter).
+  if [ "$(wc -l < "$csv")" -le 100010 ]; then
+    $PYTHON benches/scipy_models.py "$csv" --model "$m" --start "$s" --channel "$ch" --check-jac > "$TMP/jac.txt" ||
+      { echo "$m: the peer's Jacobian disagrees with central differences on $csv:" >&2; cat "$TMP/jac.txt" >&2; exit 1; }
+  fi
   $PYTHON benches/scipy_models.py "$csv" --model "$m" --start "$s" --repeat "$REPEAT" --channel "$ch" > "$TMP/peer.json"
   peers+=(--peer "scipy_models.py=$TMP/peer.json")
   # shellcheck disable=SC2046
