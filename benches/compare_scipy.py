@@ -1,91 +1,108 @@
 #!/usr/bin/env python3
-"""Table rows for benches/compare_scipy.sh: brdfit against the scipy peer on one CSV file.
+"""Table rows for benches/compare_scipy.sh: brdfit against the scipy peers on one CSV file and model.
 
-  compare_scipy.py DATA.csv PEER.py PEER_JSON MODE=BRDFIT_JSON...
+  compare_scipy.py DATA.csv --model M [--channel brdf] [--shared-peer PATH]
+                   --peer NAME=PEER_JSON... --brdfit MODE=BRDFIT_JSON...
 
-Times. The peer times least_squares alone (its geometry is computed before its clock starts);
-brdfit reports `seconds` (geometry pass + solve + statistics) and `geometry_seconds`. Two
-ratios are printed: solve against solve (brdfit's seconds minus its geometry, the peer's
-seconds), and everything against everything (the peer's geometry() timed here, median of 5,
-added to its seconds).
+M is a model of benches/scipy_models.py (lambert, phong, blinn-phong, ts-d1, ts-d2, ts-d3,
+ts-abc, ggx-smith, ggx-smith-2). The first --peer is the reference of the ratios.
 
-Costs. Each program reports ½ Σ r² summed its own way, and the two sums round differently in
-the last digits. So both parameter sets are also evaluated here by one evaluator: the peer's
-formulas (exact Fresnel, Blinn's G, D3, log loss) in long double, summed pairwise; "cost no
-higher" is judged on that column.
+Times. A peer times least_squares alone (its geometry is computed before its clock starts);
+benches/scipy_models.py reports the median time of that geometry as `geometry_seconds`; for a
+peer that does not (../shared/peers/scipy_fit.py, given as --shared-peer) its geometry() is timed
+here, median of 5. brdfit reports `seconds` (geometry pass + solve + statistics) and
+`geometry_seconds`. Two ratios are printed: solve against solve (brdfit's seconds minus its
+geometry, the peer's seconds), and everything against everything.
+
+Costs. Each program reports ½ Σ r² summed its own way, and the sums round differently in the
+last digits. So every parameter set is also evaluated here by one evaluator: scipy_models.py's
+formulas (written from the papers, not from brdfit's code) in long double, summed pairwise;
+"cost no higher" is judged on that column. Two checks per row: `vs ref` is the row's common cost
+relative to the reference peer's (negative: lower), `own/common` is the program's own cost
+relative to the common evaluator's at its own parameters (a model or loss that differs from the
+papers' shows here). Either beyond 1e-6 in size is marked `!`.
 """
-import importlib.util, json, statistics, sys, time
+import argparse, importlib.util, json, os, statistics, sys, time
 import numpy as np
 
+sys.dont_write_bytecode = True  # no __pycache__ in the repository
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import scipy_models as sm  # noqa: E402
 
-def peer_module(path):
-    spec = importlib.util.spec_from_file_location("scipy_peer", path)
+FLAG = 1e-6
+
+
+def module(path):
+    spec = importlib.util.spec_from_file_location("shared_peer", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
 
 
-def common_cost(ang, y):
+def common_cost(model, ang, y):
     """½ Σ r² of the log loss at a parameter dict, every step in long double."""
     L = np.longdouble
-    ti, pi_, to, po = [a.astype(L) for a in ang]
-    y = y.astype(L)
-    lv = np.stack([np.sin(ti) * np.cos(pi_), np.sin(ti) * np.sin(pi_), np.cos(ti)], -1)
-    ev = np.stack([np.sin(to) * np.cos(po), np.sin(to) * np.sin(po), np.cos(to)], -1)
-    nl, ne = lv[:, 2], ev[:, 2]
-    h = lv + ev
-    h /= np.sqrt(np.sum(h * h, 1))[:, None]
-    nh, eh = h[:, 2], np.sum(ev * h, 1)
-    g = np.minimum(L(1), np.minimum(2 * nh * ne / eh, 2 * nh * nl / eh))
-    pi = L("3.141592653589793238462643383279502884")
-    k = g / (pi * nl * ne)
-    x = nh * nh
-    target = np.log1p(nl * y)
+    g = sm.geometry(model, *[a.astype(L) for a in ang])
+    target = np.log1p(g["nl"] * y.astype(L))
+    names = [nm for nm, _ in sm.MODELS[model][0]]
 
     def cost(p):
-        n, c3, ps, pd = (L(p[name]) for name in ("n", "c3", "ps", "pd"))
-        c2 = c3 * c3
-        d = (c2 / (x * (c2 - 1) + 1)) ** 2
-        gg = np.sqrt(n * n + eh * eh - 1)
-        f = L(0.5) * ((gg - eh) / (gg + eh)) ** 2 * (
-            1 + ((eh * (gg + eh) - 1) / (eh * (gg - eh) + 1)) ** 2)
-        r = np.log1p(nl * (pd / pi + ps * d * k * f)) - target
-        return float(L(0.5) * np.sum(r * r))
+        r = sm.residual(model, g, target, [L(float(p[nm])) for nm in names])
+        return float(L("0.5") * np.sum(r * r))
 
     return cost
 
 
+def pairs(items):
+    out = []
+    for it in items or []:
+        name, path = it.split("=", 1)
+        with open(path) as f:
+            j = json.load(f)
+        out.append((name, j["fits"][0] if "fits" in j else j))
+    return out
+
+
 def main():
-    data, peer_path, peer_json = sys.argv[1:4]
-    peer = peer_module(peer_path)
-    ang, y = peer.load(data, "brdf")
-    keep = (np.cos(ang[0]) > 0) & (np.cos(ang[2]) > 0) & np.isfinite(y)
-    ang = [a[keep] for a in ang]
-    y = y[keep]
-    times = []
-    for _ in range(5):
-        t0 = time.perf_counter()
-        peer.geometry(*ang)
-        times.append(time.perf_counter() - t0)
-    peer_geo = statistics.median(times)
-    cost = common_cost(ang, y)
-    p = json.loads(peer_json)
-    p_common = cost(p["params"])
-    n = len(y)
+    ap = argparse.ArgumentParser()
+    ap.add_argument("data")
+    ap.add_argument("--model", required=True, choices=list(sm.MODELS))
+    ap.add_argument("--channel", default="brdf")
+    ap.add_argument("--shared-peer")
+    ap.add_argument("--peer", action="append", required=True)
+    ap.add_argument("--brdfit", action="append")
+    a = ap.parse_args()
+    ang, y = sm.load(a.data, a.channel)
+    cost = common_cost(a.model, ang, y)
     rows = []
-    for arg in sys.argv[4:]:
-        mode, path = arg.split("=", 1)
-        f = json.load(open(path))
-        solve = f["seconds"] - f["geometry_seconds"]
-        c = cost(f["params"])
-        rows.append((f"brdfit {mode}", solve, f["geometry_seconds"], f["seconds"], f["cost"], c,
-                     f"{p['seconds'] / solve:6.1f}x {(p['seconds'] + peer_geo) / f['seconds']:6.1f}x"
-                     f"   {(c - p_common) / p_common:+.1e}"))
-    rows.append(("scipy least_squares lm", p["seconds"], peer_geo, p["seconds"] + peer_geo,
-                 p["cost"], p_common, ""))
-    for name, solve, geo, total, own, common, tail in rows:
-        print(f"{n:<9} {name:<24} {solve:9.5f} {geo:9.5f} {total:9.5f} {own:.12e} "
-              f"{common:.12e} {tail}")
+    for name, p in pairs(a.peer):
+        geo = p.get("geometry_seconds")
+        if geo is None:
+            shared = module(a.shared_peer)
+            times = []
+            for _ in range(5):
+                t0 = time.perf_counter()
+                shared.geometry(*ang)
+                times.append(time.perf_counter() - t0)
+            geo = statistics.median(times)
+        rows.append((name, p["seconds"], geo, p["cost"], cost(p["params"]), p["params"]))
+    for mode, f in pairs(a.brdfit):
+        rows.append((f"brdfit {mode}", f["seconds"] - f["geometry_seconds"], f["geometry_seconds"],
+                     f["cost"], cost(f["params"]), f["params"]))
+    _, ref_solve, ref_geo, _, ref_common, _ = rows[0]
+    label = a.model if a.channel == "brdf" else f"{a.model}/{a.channel}"
+    flagged = False
+    for k, (name, solve, geo, own, common, _) in enumerate(rows):
+        vs = (common - ref_common) / ref_common
+        oc = own / common - 1
+        flagged |= abs(vs) > FLAG or abs(oc) > FLAG
+        tail = "" if k == 0 else f"{ref_solve / solve:7.1f}x {(ref_solve + ref_geo) / (solve + geo):7.1f}x "
+        print(f"{len(y):<9} {label:<18} {name:<24} {solve:9.5f} {geo:9.5f} {solve + geo:9.5f} "
+              f"{own:.12e} {common:.12e} {tail:>17} {vs:+.1e}{'!' if abs(vs) > FLAG else ' '} "
+              f"{oc:+.1e}{'!' if abs(oc) > FLAG else ' '}")
+    if flagged:  # the parameters, to find out which program is right
+        for name, *_, params in rows:
+            print(f"{'':<10}{name}: " + ", ".join(f"{k}={v:.10g}" for k, v in params.items()))
 
 
 if __name__ == "__main__":

@@ -3,12 +3,15 @@
 //!
 //! Training data: each network on the goniometer grid (θi 10–80°, θo 0–85°, φo every 15°; the
 //! tables of ../shared/data/merl-nbrdf/), green channel, every model fitted with the default
-//! options. Test set, 20,000 configurations per material from a seeded stream: half uniform in
-//! solid angle with θi, θo ≤ 80°; half near the mirror, θh log-uniform in 0.01°–30°, φh, φd
-//! uniform, θd uniform in 0°–80°, kept where θi, θo ≤ 80°. Error: the RMSE over the set of
-//! ln(1 + f cosθi) − ln(1 + f_truth cosθi). `cargo test --release --test truth -- --nocapture`
-//! prints every model's error on the whole set and on its uniform half for the 8 materials,
-//! with the default weights and with `--weights solid-angle`.
+//! options. Test set per material, from seeded streams: 50,000 configurations uniform in solid
+//! angle with θi, θo ≤ 80° (five streams of 10,000: a 10,000-configuration half moved with the
+//! seed by more than the gaps it had to settle); 10,000 near the mirror, θh log-uniform in
+//! 0.01°–30°, φh, φd uniform, θd uniform in 0°–80°, kept where θi, θo ≤ 80°. Error: the RMSE of
+//! ln(1 + f cosθi) − ln(1 + f_truth cosθi) over each half, and over the whole set with the two
+//! halves weighing equally (as in issue 22's set of 10,000 + 10,000).
+//! `cargo test --release --test truth -- --nocapture` prints every model's error on the whole
+//! set and on its uniform half for the 8 materials, with the default weights and with
+//! `--weights solid-angle`.
 
 mod common;
 
@@ -67,9 +70,19 @@ fn abc(name: &str) -> Abc {
     Abc([row[1], row[4], row[6], row[7], row[8]])
 }
 
-/// The test set: (angles, uniform half?), 10,000 configurations in each half ([`draws`]).
+/// The test set: (angles, uniform half?). Issue 22's 10,000 uniform and 10,000 near-mirror
+/// configurations of stream `seed` ([`draws`]), and the uniform halves of streams `seed + 1` to
+/// `seed + 4` (those of `uniform_half_across_test_seeds`): 50,000 uniform configurations. A
+/// uniform half of 10,000 moved with the seed by more than the few percent it had to settle
+/// (the grid's fit at or below ABC on 3, 4, 5, 2, 2 of 8 over seeds 22–26); the near-mirror
+/// half stays issue 22's, and [`log_error`] weighs the halves equally, so the whole set means
+/// what it meant.
 fn test_set(seed: u64) -> Vec<([f64; 4], bool)> {
-    draws(seed, 10_000, 10_000)
+    let mut set = draws(seed, 10_000, 10_000);
+    for s in seed + 1..=seed + 4 {
+        set.extend(draws(s, 10_000, 0));
+    }
+    set
 }
 
 /// `uniform` configurations uniform in solid angle with θi, θo ≤ 80°, then `mirror` near the
@@ -100,20 +113,25 @@ fn draws(seed: u64, uniform: usize, mirror: usize) -> Vec<([f64; 4], bool)> {
     out
 }
 
-/// RMSE of ln(1 + f cosθi) against the truth: (whole set, uniform half).
+/// RMSE of ln(1 + f cosθi) against the truth: (whole set, uniform half). The whole set's mean
+/// square is the mean of the two halves' (each half weighs ½ however many configurations it
+/// has; a set with one half only is that half).
 fn log_error(set: &[([f64; 4], bool)], truth: &[f64], f: &dyn Fn(&Geometry) -> f64) -> (f64, f64) {
-    let (mut all, mut uni, mut nu) = (0.0, 0.0, 0.0);
+    // Σr² and count of the near-mirror half [0] and the uniform half [1].
+    let (mut sum, mut n) = ([0.0; 2], [0.0; 2]);
     for ((a, uniform), t) in set.iter().zip(truth) {
         let g = Geometry::from_angles(a[0], a[1], a[2], a[3]);
         let c = a[0].cos();
         let r = (1.0 + f(&g) * c).ln() - (1.0 + t * c).ln();
-        all += r * r;
-        if *uniform {
-            uni += r * r;
-            nu += 1.0;
-        }
+        sum[usize::from(*uniform)] += r * r;
+        n[usize::from(*uniform)] += 1.0;
     }
-    ((all / set.len() as f64).sqrt(), (uni / nu).sqrt())
+    let ms: Vec<f64> = (0..2)
+        .filter(|&h| n[h] > 0.0)
+        .map(|h| sum[h] / n[h])
+        .collect();
+    let all = ms.iter().sum::<f64>() / ms.len() as f64;
+    (all.sqrt(), (sum[1] / n[1]).sqrt())
 }
 
 /// One material: the network, the test set's truth and every catalogue model fitted to the
@@ -134,9 +152,9 @@ struct Fitted {
 }
 
 /// Σr²/n of the log residual of [`log_error`] over the test set (`half`: `Some(true)` the
-/// uniform half, `Some(false)` the near-mirror half, `None` the whole set; n counts that part),
-/// split into bins of θh at `edges` (degrees, ascending): `edges.len() + 1` bins, summing to
-/// that part's mean square.
+/// uniform half, `Some(false)` the near-mirror half, `None` the whole set, its halves weighing
+/// equally as in [`log_error`]; n counts that half), split into bins of θh at `edges` (degrees,
+/// ascending): `edges.len() + 1` bins, summing to that part's mean square.
 fn loss_by_theta_h(
     set: &[([f64; 4], bool)],
     truth: &[f64],
@@ -144,18 +162,23 @@ fn loss_by_theta_h(
     edges: &[f64],
     f: &dyn Fn(&Geometry) -> f64,
 ) -> Vec<f64> {
-    let (mut acc, mut n) = (vec![0.0; edges.len() + 1], 0.0);
+    // Each sample's weight: 1/n of its half, halved where both halves count.
+    let mut n = [0.0; 2];
+    for (_, u) in set.iter().filter(|(_, u)| half.is_none_or(|h| h == *u)) {
+        n[usize::from(*u)] += 1.0;
+    }
+    let halves = n.iter().filter(|&&x| x > 0.0).count() as f64;
+    let mut acc = vec![0.0; edges.len() + 1];
     for ((a, u), t) in set.iter().zip(truth) {
         if half.is_some_and(|h| h != *u) {
             continue;
         }
-        n += 1.0;
         let g = Geometry::from_angles(a[0], a[1], a[2], a[3]);
         let c = a[0].cos();
         let r = (1.0 + f(&g) * c).ln() - (1.0 + t * c).ln();
-        acc[theta_h_bin(&g, edges)] += r * r;
+        acc[theta_h_bin(&g, edges)] += r * r / (n[usize::from(*u)] * halves);
     }
-    acc.iter().map(|x| x / n).collect()
+    acc
 }
 
 /// The bin of θh (degrees) among `edges` (ascending): the number of edges at or below it.
@@ -346,22 +369,22 @@ fn table(set: &[([f64; 4], bool)], weights: Weighting) -> (usize, usize) {
 }
 
 /// brdfit's best usable model (lowest BIC among the usable fits) against the published ABC fit
-/// on the independent test set, by default and with `--weights solid-angle`. Measured here:
-/// by default 6 of 8 on the whole set and 3 of 8 on the uniform half; solid-angle weights
-/// 6 and 4 (aluminium, silver-paint and white-diffuse-bball gain on the uniform half;
-/// blue-acrylic, chrome and the whole set of most materials lose).
+/// on the independent test set, by default and with `--weights solid-angle`. Measured here
+/// (uniform half of 50,000): by default 6 of 8 on the whole set and 4 of 8 on the uniform half
+/// (alumina-oxide, aluminium, chrome, steel); solid-angle weights 6 and 3 (silver-paint gains
+/// the uniform half, chrome and steel lose it, and the whole set of most materials is worse).
 #[test]
 fn best_usable_model_against_published_abc() {
     let set = test_set(22);
     let (wins, wins_uniform) = table(&set, Weighting::File);
     let (sa, sa_uniform) = table(&set, Weighting::SolidAngle);
     assert!(
-        wins >= 6 && wins_uniform >= 3,
-        "default weights: brdfit's best usable model at or below ABC on {wins} of 8 (whole set) and {wins_uniform} of 8 (uniform half); measured 6 and 3"
+        wins >= 6 && wins_uniform >= 4,
+        "default weights: brdfit's best usable model at or below ABC on {wins} of 8 (whole set) and {wins_uniform} of 8 (uniform half); measured 6 and 4"
     );
     assert!(
-        sa >= 6 && sa_uniform >= 4,
-        "solid-angle weights: at or below ABC on {sa} of 8 (whole set) and {sa_uniform} of 8 (uniform half); measured 6 and 4"
+        sa >= 6 && sa_uniform >= 3,
+        "solid-angle weights: at or below ABC on {sa} of 8 (whole set) and {sa_uniform} of 8 (uniform half); measured 6 and 3"
     );
 }
 
@@ -548,8 +571,8 @@ fn dense_sampling_against_goniometer_grid() {
 
 /// How firmly the test set decides the uniform half: the goniometer grid's best usable model
 /// (BIC) and the published ABC fit on the uniform halves of five test sets (seeds 22–26,
-/// 10,000 configurations each), and the uniform half's best model fitted to 150,000 draws from
-/// that half (seed 7). A measurement: `cargo test --release --test truth seeds -- --ignored
+/// 10,000 configurations each; together the uniform half of [`test_set`]), and the uniform
+/// half's best model fitted to 150,000 draws from that half (seed 7). A measurement: `cargo test --release --test truth seeds -- --ignored
 /// --nocapture`.
 #[test]
 #[ignore]
