@@ -10,9 +10,14 @@ ts-abc, ggx-smith, ggx-smith-2). The first --peer is the reference of the ratios
 Times. A peer times least_squares alone (its geometry is computed before its clock starts);
 benches/scipy_models.py reports the median time of that geometry as `geometry_seconds`; for a
 peer that does not (../shared/peers/scipy_fit.py, given as --shared-peer) its geometry() is timed
-here, median of 5. brdfit reports `seconds` (geometry pass + solve + statistics) and
-`geometry_seconds`. Two ratios are printed: solve against solve (brdfit's seconds minus its
-geometry, the peer's seconds), and everything against everything.
+here, median of 5. brdfit reports `seconds` = `geometry_seconds` (the per-sample pass) +
+`solve_seconds` (set-up, global initialisation, local fits and polish: reaching the minimum) +
+`statistics_seconds` (checks at return, standard errors, correlations, 1 % ranges), each the
+median of its own column. Two ratios are printed: solve against solve (brdfit's
+`solve_seconds`, the peer's seconds: the work both clocks cover), and everything against
+everything (brdfit's `seconds`, statistics included, against the peer's geometry + solve; the
+peers compute no statistics). brdfit's fit JSON of versions before `solve_seconds` gives
+seconds − geometry as its solve and no statistics column.
 
 Costs. Each program reports ½ Σ r² summed its own way, and the sums round differently in the
 last digits. So every parameter set is also evaluated here by one evaluator: scipy_models.py's
@@ -85,19 +90,24 @@ def main():
                 shared.geometry(*ang)
                 times.append(time.perf_counter() - t0)
             geo = statistics.median(times)
-        rows.append((name, p["seconds"], geo, p["cost"], cost(p["params"]), p["params"]))
+        rows.append((name, p["seconds"], 0.0, geo, p["cost"], cost(p["params"]), p["params"]))
     for mode, f in pairs(a.brdfit):
-        rows.append((f"brdfit {mode}", f["seconds"] - f["geometry_seconds"], f["geometry_seconds"],
-                     f["cost"], cost(f["params"]), f["params"]))
-    _, ref_solve, ref_geo, _, ref_common, _ = rows[0]
+        geo = f["geometry_seconds"]
+        if "solve_seconds" in f:
+            solve, stats = f["solve_seconds"], f["statistics_seconds"]
+        else:
+            solve, stats = f["seconds"] - geo, 0.0
+        rows.append((f"brdfit {mode}", solve, stats, geo, f["cost"], cost(f["params"]), f["params"]))
+    _, ref_solve, _, ref_geo, _, ref_common, _ = rows[0]
     label = a.model if a.channel == "brdf" else f"{a.model}/{a.channel}"
     flagged = False
-    for k, (name, solve, geo, own, common, _) in enumerate(rows):
+    for k, (name, solve, stats, geo, own, common, _) in enumerate(rows):
+        total = solve + stats + geo
         vs = (common - ref_common) / ref_common
         oc = own / common - 1
         flagged |= abs(vs) > FLAG or abs(oc) > FLAG
-        tail = "" if k == 0 else f"{ref_solve / solve:7.1f}x {(ref_solve + ref_geo) / (solve + geo):7.1f}x "
-        print(f"{len(y):<9} {label:<18} {name:<24} {solve:9.5f} {geo:9.5f} {solve + geo:9.5f} "
+        tail = "" if k == 0 else f"{ref_solve / solve:7.1f}x {(ref_solve + ref_geo) / total:7.1f}x "
+        print(f"{len(y):<9} {label:<18} {name:<24} {solve:9.5f} {stats:9.5f} {geo:9.5f} {total:9.5f} "
               f"{own:.12e} {common:.12e} {tail:>17} {vs:+.1e}{'!' if abs(vs) > FLAG else ' '} "
               f"{oc:+.1e}{'!' if abs(oc) > FLAG else ' '}")
     if flagged:  # the parameters, to find out which program is right

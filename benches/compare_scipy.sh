@@ -10,12 +10,15 @@
 # (hemisphere grid, 1 % noise, seed 1) at each size; then MERL alumina-oxide, green ($REAL).
 # benches/compare_scipy.py prints the rows:
 #
-#   solve s     brdfit: seconds − geometry_seconds; peer: its own clock (least_squares only)
+#   solve s     brdfit: solve_seconds (set-up, global initialisation, local fits, polish);
+#               peer: its own clock (least_squares only)
+#   stats s     brdfit: statistics_seconds (checks, standard errors, ranges); peer: 0 (none)
 #   geometry s  the parameter-free per-sample pass (the peer's, timed on its own)
-#   total s     the two together
+#   total s     the three together (brdfit: its `seconds`)
 #   own cost    ½ Σ r² as each program sums it
 #   common cost ½ Σ r² at each program's parameters, one evaluator (scipy_models.py in long double)
-#   ratio       reference peer / brdfit: solve against solve, total against total
+#   ratio       reference peer / brdfit: solve against solve, total against total (brdfit's
+#               statistics counted in its total, the peers have none)
 #   vs ref      the row's common cost relative to the reference peer's (negative: lower)
 #   own/common  own cost relative to common cost at the same parameters; `!` marks |x| > 1e-6
 #
@@ -107,8 +110,8 @@ compare() {
 }
 
 echo "load average: $(cut -d' ' -f1-3 /proc/loadavg)"
-printf "%-9s %-18s %-24s %9s %9s %9s %18s %18s %17s %8s %10s\n" samples model program "solve s" \
-  "geometry" "total s" "own cost" "common cost" "solve  total" "vs ref" "own/common"
+printf "%-9s %-18s %-24s %9s %9s %9s %9s %18s %18s %17s %8s %10s\n" samples model program "solve s" \
+  "stats s" "geometry" "total s" "own cost" "common cost" "solve  total" "vs ref" "own/common"
 for n in $SIZES; do
   for m in $MODELS; do
     csv="$TMP/$m-$n.csv"

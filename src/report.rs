@@ -244,6 +244,8 @@ fn fit_json(f: &FitResult) -> Value {
     if let Some(o) = v.as_object_mut() {
         o.remove("seconds");
         o.remove("geometry_seconds");
+        o.remove("solve_seconds");
+        o.remove("statistics_seconds");
     }
     v
 }

@@ -755,6 +755,18 @@ fn repeated_fits_give_the_same_result() {
     assert_eq!(one.params, rep.params);
     assert_eq!(one.cost, rep.cost);
     assert!(rep.seconds > 0.0 && rep.geometry_seconds <= rep.seconds);
+    // One run's clock is its three stages (geometry, solve, statistics), each a real part;
+    // with --repeat each is the median of its own column, each within the run's range.
+    let stages = one.geometry_seconds + one.solve_seconds + one.statistics_seconds;
+    assert!(
+        (stages - one.seconds).abs() <= 1e-12 * one.seconds,
+        "{stages} s in stages, {} s in all",
+        one.seconds
+    );
+    for f in [&one, &rep] {
+        assert!(f.geometry_seconds > 0.0 && f.solve_seconds > 0.0 && f.statistics_seconds > 0.0);
+        assert!(f.solve_seconds < f.seconds && f.statistics_seconds < f.seconds);
+    }
 }
 
 /// argmin's solvers run on the same problem as brdfit's (the in-Rust peers): on Blinn's MgO

@@ -13,6 +13,8 @@ use common::load;
 fn untimed(mut f: FitResult) -> FitResult {
     f.seconds = 0.0;
     f.geometry_seconds = 0.0;
+    f.solve_seconds = 0.0;
+    f.statistics_seconds = 0.0;
     f
 }
 

@@ -52,6 +52,8 @@ const KEYS: &[&str] = &[
     "termination",
     "seconds",
     "geometry_seconds",
+    "solve_seconds",
+    "statistics_seconds",
     "warnings",
     "bic",
     "aic",

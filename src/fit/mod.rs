@@ -264,13 +264,24 @@ pub struct FitResult {
     /// Why the final stage stopped.
     #[serde(default)]
     pub termination: String,
-    /// Wall time of the fit: geometry pass, solve and statistics (no file reading).
+    /// Wall time of the fit: geometry pass, solve and statistics (no file reading):
+    /// `geometry_seconds` + `solve_seconds` + `statistics_seconds`.
     #[serde(default)]
     pub seconds: f64,
     /// The part of `seconds` spent on the per-sample geometry pass (N·L, N·H, E·H, G and the
     /// targets), which depends on no parameter and is done once per fit.
     #[serde(default)]
     pub geometry_seconds: f64,
+    /// The part of `seconds` that reaches the minimum: the problem set up from the geometry,
+    /// the global initialisation, the candidates' local fits and the polish on every row (the
+    /// work scipy's `least_squares` clock covers).
+    #[serde(default)]
+    pub solve_seconds: f64,
+    /// The part of `seconds` after the minimum is reached: the checks at return (first-order
+    /// conditions, `--verify`'s random starts), standard errors, correlations and the 1 %
+    /// ranges (profiled refits where the quadratic model does not hold).
+    #[serde(default)]
+    pub statistics_seconds: f64,
     /// Honest warnings: undetermined parameters with the range that fits, limits reached.
     #[serde(default)]
     pub warnings: Vec<String>,
@@ -434,6 +445,8 @@ impl FitResult {
             termination: s("termination").unwrap_or_default(),
             seconds: f("seconds"),
             geometry_seconds: f("geometry_seconds"),
+            solve_seconds: f("solve_seconds"),
+            statistics_seconds: f("statistics_seconds"),
             warnings: vec![],
             bic: f("bic"),
             aic: f("aic"),
@@ -535,7 +548,7 @@ fn timed_rows(ds: &Dataset, c: usize, opts: &FitOptions) -> (ChannelRows, f64) {
 }
 
 /// [`fit`] run `repeat` times in this process (for benchmarks): the results of the first run
-/// with `seconds` and `geometry_seconds` each the median of its own column over the runs
+/// with `seconds` and each stage's seconds the median of its own column over the runs
 /// (every run gives the same parameters; only the clock differs).
 pub fn fit_timed(
     ds: &Dataset,
@@ -548,22 +561,28 @@ pub fn fit_timed(
     Ok(median_times(runs))
 }
 
-/// The first of several runs of the same fits, with `seconds` and `geometry_seconds` each the
+/// The first of several runs of the same fits, with `seconds` and each stage's seconds the
 /// median of its own column over the runs.
 fn median_times(mut runs: Vec<Vec<FitResult>>) -> Vec<FitResult> {
     let median = |mut v: Vec<f64>| {
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
-    let seconds: Vec<[f64; 2]> = (0..runs[0].len())
+    let seconds: Vec<[f64; 4]> = (0..runs[0].len())
         .map(|i| {
             let col = |g: fn(&FitResult) -> f64| median(runs.iter().map(|r| g(&r[i])).collect());
-            [col(|f| f.seconds), col(|f| f.geometry_seconds)]
+            [
+                col(|f| f.seconds),
+                col(|f| f.geometry_seconds),
+                col(|f| f.solve_seconds),
+                col(|f| f.statistics_seconds),
+            ]
         })
         .collect();
     let mut fits = runs.swap_remove(0);
-    for (f, [s, g]) in fits.iter_mut().zip(seconds) {
+    for (f, [s, g, v, t]) in fits.iter_mut().zip(seconds) {
         (f.seconds, f.geometry_seconds) = (s, g);
+        (f.solve_seconds, f.statistics_seconds) = (v, t);
     }
     fits
 }
@@ -645,6 +664,7 @@ fn fit_group(
         found.sol.x = x;
         found.sol.normal = None;
     }
+    let solve_seconds = t0.elapsed().as_secs_f64();
     // Statistics in natural parameters, on the declared (not the robust) loss.
     let cost = if found.robust == Robust::None {
         found.sol.cost
@@ -675,6 +695,7 @@ fn fit_group(
     let checks = certify(&full, &mut found, &lay, &theta, opts);
     let u = uncertainty(&full, &found.sol, &theta, cost, &lay, opts, &mut warnings);
     let (params, stderr, free, correlation) = reported(&lay, &theta, &u);
+    let fit_seconds = t0.elapsed().as_secs_f64();
     let rss = 2.0 * cost;
     let mf = m as f64;
     let kf = nfree as f64;
@@ -697,8 +718,10 @@ fn fit_group(
         iterations: found.iterations,
         evaluations: found.evaluations,
         termination: found.sol.termination,
-        seconds: geometry_seconds + t0.elapsed().as_secs_f64(),
+        seconds: geometry_seconds + fit_seconds,
         geometry_seconds,
+        solve_seconds,
+        statistics_seconds: fit_seconds - solve_seconds,
         warnings,
         bic: loglike_term + kf * mf.ln(),
         aic: loglike_term + 2.0 * kf,
