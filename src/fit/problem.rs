@@ -182,17 +182,20 @@ impl Transform {
 }
 
 /// The indices of the `k` largest values of `v` in `range` (ties to the lower index), in no
-/// particular order. The k-th largest of the block maxima (blocks of 1,024 rows) is a lower
-/// bound of the k-th largest value, so only rows of blocks whose maximum reaches it are
-/// candidates; among them one selection (linear time) finds the k-th largest value, and the
-/// rows above it, then the rows equal to it in index order, are taken.
+/// particular order. The k-th largest of the block maxima is a lower bound of the k-th largest
+/// value, so only rows of blocks whose maximum reaches it are candidates; among them one
+/// selection (linear time) finds the k-th largest value, and the rows above it, then the rows
+/// equal to it in index order, are taken. The blocks (16–1,024 rows) are short enough that
+/// there are about 4k of them: with fewer blocks than k the bound is void and every row would
+/// be a candidate (the 62,500-row subsample of a million rows, k = 6,250, copied and selected
+/// all million values).
 fn largest(v: &[f64], range: std::ops::Range<usize>, k: usize) -> Vec<usize> {
     if k == 0 || range.is_empty() {
         return Vec::new();
     }
-    const BLOCK: usize = 1024;
+    let block = (range.len() / (4 * k)).clamp(16, 1024);
     let maxima: Vec<f64> = v[range.clone()]
-        .chunks(BLOCK)
+        .chunks(block)
         .map(|c| c.iter().copied().fold(f64::NEG_INFINITY, f64::max))
         .collect();
     let floor = if maxima.len() > k {
@@ -207,8 +210,8 @@ fn largest(v: &[f64], range: std::ops::Range<usize>, k: usize) -> Vec<usize> {
         if below(max) {
             continue;
         }
-        let lo = range.start + b * BLOCK;
-        cand.extend((lo..(lo + BLOCK).min(range.end)).filter(|&i| !below(v[i])));
+        let lo = range.start + b * block;
+        cand.extend((lo..(lo + block).min(range.end)).filter(|&i| !below(v[i])));
     }
     if cand.len() <= k {
         return cand;
@@ -359,7 +362,17 @@ impl Rows {
         use rayon::prelude::*;
         const CHUNK: usize = 16_384;
         let width = |j: usize| if j == 7 && !weighted { 0 } else { n };
-        let mut cols: [Vec<f64>; 8] = std::array::from_fn(|j| vec![0.0; width(j)]);
+        // Zeroed (and, on a first run, faulted in) on every thread when there are several
+        // chunks: 56 MB for a million rows, a single-threaded memset of several ms otherwise.
+        let mut cols: [Vec<f64>; 8] = if n > CHUNK {
+            let mut v: Vec<Vec<f64>> = (0..8)
+                .into_par_iter()
+                .map(|j| vec![0.0; width(j)])
+                .collect();
+            std::array::from_fn(|j| std::mem::take(&mut v[j]))
+        } else {
+            std::array::from_fn(|j| vec![0.0; width(j)])
+        };
         // Each chunk's slice of every column (an absent column: empty slices).
         let mut parts: Vec<(std::ops::Range<usize>, [&mut [f64]; 8])> = Vec::new();
         let mut rest: [&mut [f64]; 8] = cols.each_mut().map(|c| c.as_mut_slice());
@@ -530,9 +543,14 @@ impl BrdfProblem {
                 order.sort_unstable();
                 let rest = hi - lo - order.len();
                 let stride = (hi - lo).div_ceil(max_rows_per_channel - top).max(1);
+                // Both in increasing order: one walk through `order` skips its rows.
+                let mut top_rows = order.iter().copied().peekable();
                 let kept: Vec<usize> = (lo..hi)
                     .step_by(stride)
-                    .filter(|i| order.binary_search(i).is_err())
+                    .filter(|&i| {
+                        while top_rows.next_if(|&o| o < i).is_some() {}
+                        top_rows.peek() != Some(&i)
+                    })
                     .collect();
                 let w = rest as f64 / kept.len() as f64;
                 let mut chosen: Vec<(usize, f64)> = kept.into_iter().map(|i| (i, w)).collect();
@@ -544,6 +562,16 @@ impl BrdfProblem {
         }
         let r = &self.rows;
         let take = |v: &Vec<f64>| pick.iter().map(|&(i, _)| v[i]).collect::<Vec<f64>>();
+        // Each column gathered by its own task when the subsample is large (a million rows'
+        // 62,500-row subsample: seven strided sweeps through 8 MB columns); small ones here.
+        let [nl, ne, nh, eh, re, g_ne, target] = if pick.len() >= 16_384 {
+            use rayon::prelude::*;
+            let src = [&r.nl, &r.ne, &r.nh, &r.eh, &r.re, &r.g_ne, &r.target];
+            let mut v: Vec<Vec<f64>> = src.par_iter().map(|c| take(c)).collect();
+            std::array::from_fn(|j| std::mem::take(&mut v[j]))
+        } else {
+            [&r.nl, &r.ne, &r.nh, &r.eh, &r.re, &r.g_ne, &r.target].map(take)
+        };
         let weighted = r.weighted || pick.iter().any(|&(_, w)| w != 1.0);
         let sw = if weighted {
             pick.iter()
@@ -553,13 +581,13 @@ impl BrdfProblem {
             Vec::new()
         };
         let rows = Rows {
-            nl: take(&r.nl),
-            ne: take(&r.ne),
-            nh: take(&r.nh),
-            eh: take(&r.eh),
-            re: take(&r.re),
-            g_ne: take(&r.g_ne),
-            target: take(&r.target),
+            nl,
+            ne,
+            nh,
+            eh,
+            re,
+            g_ne,
+            target,
             sw,
             weighted,
             theta_h: std::sync::OnceLock::new(),
@@ -1046,13 +1074,15 @@ impl TsD3 {
 #[cfg(test)]
 mod tests {
     /// The `k` largest values of a range equal the first `k` of the range sorted by value
-    /// (largest first, ties to the lower index), with many ties and with more blocks of 1,024
-    /// rows than `k` (the block maxima's bound in use) or fewer.
+    /// (largest first, ties to the lower index), with many ties and with more blocks than `k`
+    /// (the block maxima's bound in use; blocks of 16 to 1,024 rows) or fewer.
     #[test]
     fn largest_matches_a_full_sort() {
         for (n, k, levels) in [
             (10_000, 200, 37),
             (10_000, 50, 1_000_000),
+            (200_000, 5_000, 1_000_000),
+            (200_000, 5_000, 40),
             (300_000, 100, 5_000),
             (5, 9, 3),
             (2_100, 2_100, 7),
