@@ -402,8 +402,12 @@ impl Ggx {
     /// Smith's G1 for GGX at cosine `c` and its α-derivative: G1 = 2/(1 + √(1 + α² tan²)).
     #[inline(always)]
     fn g1(&self, c: f64) -> (f64, f64) {
-        let c2 = c * c;
-        let tan2 = (1.0 - c2).max(0.0) / c2;
+        self.g1_tan2(tan2(c))
+    }
+
+    /// [`Ggx::g1`] from tan² of the angle (the same operations, so the same bits).
+    #[inline(always)]
+    fn g1_tan2(&self, tan2: f64) -> (f64, f64) {
         let s = (1.0 + self.a2 * tan2).sqrt();
         let g = 2.0 / (1.0 + s);
         (g, -g * g * 0.5 * self.alpha * tan2 / s)
@@ -413,17 +417,30 @@ impl Ggx {
     /// `tan2`) and its α-derivative.
     #[inline(always)]
     fn lobe(&self, nh2: f64, tan2: f64, nl: f64, ne: f64) -> (f64, f64) {
+        self.lobe_at(nh2, tan2, [self::tan2(nl), self::tan2(ne), 0.25 / ne])
+    }
+
+    /// [`Ggx::lobe`] from what does not depend on α: [tan² θi, tan² θo, 1/(4 N·E)] (so two
+    /// lobes at one row compute them once, with the same bits).
+    #[inline(always)]
+    fn lobe_at(&self, nh2: f64, tan2: f64, [tl, te, w]: [f64; 3]) -> (f64, f64) {
         let q = self.a2 + tan2;
         let d = self.a2 / (PI * nh2 * nh2 * q * q);
         let dd = d * (2.0 / self.alpha - 4.0 * self.alpha / q);
-        let (gl, dgl) = self.g1(nl);
-        let (ge, dge) = self.g1(ne);
-        let w = 0.25 / ne;
+        let (gl, dgl) = self.g1_tan2(tl);
+        let (ge, dge) = self.g1_tan2(te);
         (
             d * gl * ge * w,
             w * (dd * gl * ge + d * (dgl * ge + gl * dge)),
         )
     }
+}
+
+/// tan² of the angle whose cosine is `c`: (1 − c²)/c², 0 at c ≥ 1.
+#[inline(always)]
+fn tan2(c: f64) -> f64 {
+    let c2 = c * c;
+    (1.0 - c2).max(0.0) / c2
 }
 
 /// [`Ggx::lobe`] per unit cosθi at rows `range`: D G1(L) G1(E)/(4 N·L N·E), 0 where N·H ≤ 0
@@ -501,8 +518,9 @@ impl<const LOSS: u8, const JAC: bool, const ROB: bool> Block for Ggx2Block<LOSS,
             let h = if ok { nh[l] } else { 1.0 };
             let nh2 = h * h;
             let tan2 = (1.0 - nh2).max(0.0) / nh2;
-            let (l1, dl1) = k1.lobe(nh2, tan2, nl[l], ne[l]);
-            let (l2, dl2) = k2.lobe(nh2, tan2, nl[l], ne[l]);
+            let shared = [self::tan2(nl[l]), self::tan2(ne[l]), 0.25 / ne[l]];
+            let (l1, dl1) = k1.lobe_at(nh2, tan2, shared);
+            let (l2, dl2) = k2.lobe_at(nh2, tan2, shared);
             let (f, df) = fresnel(k1.n, k1.n2m1, if ok { eh[l] } else { 1.0 });
             let m = if ok { 1.0 } else { 0.0 };
             let spec = k1.ps * l1 + k2.ps * l2;
