@@ -983,6 +983,10 @@ fn weigh_near_mirror(ds: &mut Dataset, train: &[([f64; 4], bool)], w: f64) {
     );
 }
 
+/// One fit in [`one_fit_for_both_halves_by_near_mirror_weight`]: (model, w, errors (whole set,
+/// uniform half), why it is not usable (empty when it is), the two-lobe prototype).
+type Candidate = (String, f64, (f64, f64), String, bool);
+
 /// How far below ABC (e_abc) a fit's errors e are on both halves at once: the smaller of the
 /// two relative margins 1 − e/e_abc (whole set, uniform half); ≥ 0 where it wins both.
 fn margin(e: (f64, f64), e_abc: (f64, f64)) -> f64 {
@@ -1013,30 +1017,29 @@ fn one_fit_for_both_halves_by_near_mirror_weight() {
         let truth: Vec<f64> = set.iter().map(|(a, _)| net.eval_symmetric(*a)[1]).collect();
         let published = abc(name);
         let e_abc = log_error(&set, &truth, &|g| published.brdf(g));
-        // (label, w, errors, usable, prototype?)
-        let mut all: Vec<(String, f64, (f64, f64), bool, bool)> = Vec::new();
+        let mut all: Vec<Candidate> = Vec::new();
         for (k, &w) in MIRROR_WEIGHTS.iter().enumerate() {
             weigh_near_mirror(&mut ds, &train, w);
             let f = fitted_to(name, net.clone(), &ds, &set, Weighting::File);
             let two = fit_two_abc(&ds, name);
             let e_two = log_error(&set, &truth, &|g| two.eval(g, None));
-            let row: Vec<_> = f
+            let row: Vec<Candidate> = f
                 .fits
                 .iter()
                 .zip(&f.errors)
-                .map(|(m, e)| (m.label(), w, *e, m.usable(), false))
-                .chain([("two ABC lobes".to_string(), w, e_two, true, true)])
+                .map(|(m, e)| (m.label(), w, *e, m.unusable.join("; "), false))
+                .chain([("two ABC lobes".to_string(), w, e_two, String::new(), true)])
                 .collect();
             let wins = |proto: bool| {
                 row.iter()
-                    .any(|r| r.3 && (proto || !r.4) && margin(r.2, e_abc) >= 0.0)
+                    .any(|r| r.3.is_empty() && (proto || !r.4) && margin(r.2, e_abc) >= 0.0)
             };
             serves[k][0] += usize::from(wins(false));
             serves[k][1] += usize::from(wins(true));
             let cells: Vec<String> = row
                 .iter()
-                .map(|(l, _, e, usable, _)| {
-                    let flag = if *usable { "" } else { " (not usable)" };
+                .map(|(l, _, e, why, _)| {
+                    let flag = if why.is_empty() { "" } else { " (not usable)" };
                     format!("{l}{flag} {:.4}/{:.4}", e.0, e.1)
                 })
                 .collect();
@@ -1045,12 +1048,10 @@ fn one_fit_for_both_halves_by_near_mirror_weight() {
         }
         let usable = |proto: bool| {
             all.iter()
-                .filter(move |r| r.3 && r.4 == proto)
+                .filter(move |r| r.3.is_empty() && r.4 == proto)
                 .collect::<Vec<_>>()
         };
-        let cell = |r: &&(String, f64, (f64, f64), bool, bool)| {
-            format!("{}, w {}: {:.4} / {:.4}", r.0, r.1, r.2.0, r.2.1)
-        };
+        let cell = |r: &&Candidate| format!("{}, w {}: {:.4} / {:.4}", r.0, r.1, r.2.0, r.2.1);
         let ladder = usable(false);
         let best_all = ladder
             .iter()
@@ -1060,13 +1061,28 @@ fn one_fit_for_both_halves_by_near_mirror_weight() {
             .iter()
             .min_by(|a, b| a.2.1.total_cmp(&b.2.1))
             .unwrap();
-        let best_both = |rows: &[&(String, f64, (f64, f64), bool, bool)]| {
+        let best_both = |rows: &[&Candidate]| {
             let r = rows
                 .iter()
                 .max_by(|a, b| margin(a.2, e_abc).total_cmp(&margin(b.2, e_abc)))
                 .unwrap();
             format!("{} ({:+.1} %)", cell(r), 100.0 * margin(r.2, e_abc))
         };
+        // Where no usable fit wins both halves: the not-usable fit of the ladder closest to
+        // winning both, and why it is not usable.
+        let unusable: Vec<&Candidate> = all.iter().filter(|r| !r.3.is_empty()).collect();
+        if !unusable.is_empty() && !ladder.iter().any(|r| margin(r.2, e_abc) >= 0.0) {
+            let r = unusable
+                .iter()
+                .max_by(|a, b| margin(a.2, e_abc).total_cmp(&margin(b.2, e_abc)))
+                .unwrap();
+            println!(
+                "{name}: no usable fit wins both; the closest not usable one: {} ({:+.1} %): {}",
+                cell(r),
+                100.0 * margin(r.2, e_abc),
+                r.3
+            );
+        }
         table.push(format!(
             "| {name} | {:.4} / {:.4} | {} | {} | {} | {} |",
             e_abc.0,
