@@ -286,7 +286,7 @@ pub fn pbrt(c: &Colour) -> String {
 /// declared ranges. One channel: a colour is refused with the fix.
 pub fn brdf_explorer(c: &Colour) -> Result<String, String> {
     if !c.is_grey() {
-        return Err("the BRDF Explorer export holds one channel's model, and these fits are colour\n  fix: export one channel with --channel (e.g. --channel g)".into());
+        return Err("the BRDF Explorer export holds one channel's model, and these fits are colour\n  fix: export one channel with --channel NAME".into());
     }
     let m = &c.model;
     let params: String = m

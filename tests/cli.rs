@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::write;
+use common::{fit_object, write};
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -1078,15 +1078,6 @@ fn lobe_of_a_many_channel_fit_draws_the_data_channel() {
     assert!(!svg.contains("fit (400nm)") && !svg.contains("fit (560nm)"));
 }
 
-/// A fit object written by hand (the keys the README documents), for the fit-file tests.
-fn fit_object(model: &str, dist: &str, channel: &str, params: &str, extra: &str) -> String {
-    format!(
-        r#"{{"model": "{model}", "distribution": "{dist}", "loss": "log", "method": "lm",
-  "channel": "{channel}", "params": {params}, "cost": 1.0, "rmse": 0.01,
-  "samples_used": 1000, "bic": -5000.0, "aic": -5010.0, "n_free": 4{extra}}}"#
-    )
-}
-
 const MGO: &str = r#"{"n": 1.8, "c3": 0.35, "ps": 0.667, "pd": 0.333}"#;
 
 /// Issue 26: every hand-edited fit file is refused by every consumer with the key named and
@@ -1106,7 +1097,7 @@ fn fit_files_are_read_strictly_by_every_consumer() {
         (
             "n_half",
             ts(r#"{"n": 0.5, "c3": 0.35, "ps": 0.667, "pd": 0.333}"#, ""),
-            vec!["params.n = 0.5", "1 ≤ n ≤ 1e7"],
+            vec!["params.n = 0.5", "1 < n ≤ 1e7"],
         ),
         (
             "c3_neg",
@@ -1136,7 +1127,7 @@ fn fit_files_are_read_strictly_by_every_consumer() {
         (
             "dist",
             fit_object("torrance-sparrow", "d7", "brdf", MGO, ""),
-            vec!["key 'distribution'", "d7", "d1, d2 or d3"],
+            vec!["key 'distribution'", "d7", "d1, d2, d3, abc"],
         ),
         (
             "param_unknown",

@@ -182,7 +182,7 @@ pub(crate) fn run_inverse(args: InverseArgs) -> Result<()> {
         }
         None => inverse::invert_line(&vals, proj(&light), ca, cd, pixel_size, prior),
     };
-    let base = output.with_extension("");
+    let base = output_base(&output, &["csv", "svg", "png"])?;
     write_file(
         &base.with_extension("csv"),
         inverse::to_csv(&px, &pos).as_bytes(),

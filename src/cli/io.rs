@@ -217,6 +217,21 @@ pub(crate) struct ExportArgs {
     pub(crate) channel: Option<String>,
 }
 
+/// `--channel C` for one of `picked`'s channels, as the fix of a command that takes one: g of
+/// RGB, else the middle one (550nm of 400–700nm), with the list.
+fn channel_example(picked: &brdfit::fit::Picked) -> String {
+    let names: Vec<&str> = picked.channels.iter().map(|c| c.channel.as_str()).collect();
+    let one = if names.contains(&"g") {
+        "g"
+    } else {
+        names.get(names.len() / 2).copied().unwrap_or("")
+    };
+    format!(
+        "--channel {one} (the file's channels: {})",
+        names.join(", ")
+    )
+}
+
 /// `brdfit export` (see its help).
 pub(crate) fn run_export(args: ExportArgs) -> Result<()> {
     let ExportArgs {
@@ -248,7 +263,10 @@ pub(crate) fn run_export(args: ExportArgs) -> Result<()> {
     let text = match fmt {
         ExportFormat::Mitsuba => Some(export::mitsuba(&c, &id).map_err(fail)?),
         ExportFormat::Pbrt => Some(export::pbrt(&c)),
-        ExportFormat::BrdfExplorer => Some(export::brdf_explorer(&c).map_err(fail)?),
+        ExportFormat::BrdfExplorer => Some(
+            export::brdf_explorer(&c)
+                .map_err(|e| fail(e.replace("--channel NAME", &channel_example(&picked))))?,
+        ),
         ExportFormat::Merl | ExportFormat::Csv => None,
     };
     // The refit's error is a note, or a warning (even with --quiet) where it is not faithful.

@@ -90,6 +90,30 @@ pub(crate) fn wrote_all<'a>(paths: impl IntoIterator<Item = &'a PathBuf>) {
     }
 }
 
+/// The base name of an output written as BASE.EXT for each extension of `exts` (e.g. png and
+/// exr): `-o NAME` without an extension, or with one of `exts` (any case), is that base; any
+/// other extension is refused with the fix, where it used to be replaced silently (`-o x.jpg`
+/// wrote x.png).
+pub(crate) fn output_base(output: &Path, exts: &[&str]) -> Result<PathBuf> {
+    match output.extension().map(|e| e.to_string_lossy()) {
+        None => Ok(output.to_path_buf()),
+        Some(e) if exts.iter().any(|x| x.eq_ignore_ascii_case(&e)) => Ok(output.with_extension("")),
+        Some(e) => {
+            let files: Vec<String> = exts
+                .iter()
+                .map(|x| output.with_extension(x).display().to_string())
+                .collect();
+            bail!(
+                "-o {}: this command writes {} files, not .{e}\n  fix: give -o {} (it writes {})",
+                output.display(),
+                exts.join(" and "),
+                output.with_extension(exts[0]).display(),
+                files.join(" and ")
+            )
+        }
+    }
+}
+
 /// Save a chart as `base.svg` and `base.png` and announce both.
 pub(crate) fn save_chart(chart: &impl brdfit::plot::Chart, base: &Path) -> Result<()> {
     let (svg, png) = brdfit::plot::save(chart, base)?;

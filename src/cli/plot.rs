@@ -162,12 +162,9 @@ pub(crate) enum PlotCommand {
     },
 }
 
-/// The output base name without extension.
-pub(crate) fn base(p: &Path) -> PathBuf {
-    match p.extension().and_then(|e| e.to_str()) {
-        Some("svg" | "png") => p.with_extension(""),
-        _ => p.to_path_buf(),
-    }
+/// The output base name without extension ([`output_base`]: svg and png).
+pub(crate) fn base(p: &Path) -> Result<PathBuf> {
+    output_base(p, &["svg", "png"])
 }
 
 pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
@@ -240,7 +237,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                 log,
                 plot::InPlane::both(tolerance),
             );
-            save_chart(&chart, &base(&output))?;
+            save_chart(&chart, &base(&output)?)?;
             Ok(())
         }
         PlotCommand::BlinnFigures { output } => {
@@ -290,7 +287,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                 n: bins as usize,
                 images: [d, f],
             };
-            save_chart(&chart, &base(&output))?;
+            save_chart(&chart, &base(&output)?)?;
             Ok(())
         }
         PlotCommand::Albedo {
@@ -330,7 +327,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                 _ => vec![],
             };
             let (chart, pts) = plot::albedo_chart(&label, &m, &measured);
-            save_chart(&chart, &base(&output))?;
+            save_chart(&chart, &base(&output)?)?;
             let worst = pts
                 .iter()
                 .cloned()

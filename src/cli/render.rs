@@ -44,8 +44,29 @@ pub(crate) fn ts_model_from(
                     );
                 }
             }
+            if !fits.iter().any(|f| f.model == ModelKind::TorranceSparrow) {
+                bail!(
+                    "{}: fig7 draws Blinn's Torrance–Sparrow objects, and the file holds no torrance-sparrow fit (it holds {})\n  fix: fit one: brdfit fit DATA --model torrance-sparrow --json OUT",
+                    p.display(),
+                    fits.iter()
+                        .fold(Vec::new(), |mut v, f| {
+                            if !v.contains(&f.label()) {
+                                v.push(f.label());
+                            }
+                            v
+                        })
+                        .join(", ")
+                );
+            }
+            // The pick's own fixes, in fig7's terms: another model is no Torrance–Sparrow object.
             let r = pick_fit_from(p, &fits, &want, None).map_err(|e| {
-                anyhow::anyhow!("{e}\n  (fig7 needs a torrance-sparrow fit: brdfit fit DATA --model torrance-sparrow --json OUT)")
+                anyhow!(
+                    "{}",
+                    e.to_string().replace(
+                        "pick another with --model",
+                        "pick another torrance-sparrow distribution with --distribution"
+                    )
+                )
             })?;
             Ok(r.model)
         }
@@ -98,6 +119,7 @@ pub(crate) fn run_render(
         }
         return Ok(());
     }
+    let base = output_base(output, &["png", "exr"])?;
     let s = load_scene(Path::new(scene))?;
     render::check_image_size(s.camera.width, s.camera.height, allow_large)
         .map_err(|e| anyhow!("{scene}: camera: {e}"))?;
@@ -119,10 +141,6 @@ pub(crate) fn run_render(
             img.total_rays()
         );
     }
-    let base = match output.extension().and_then(|e| e.to_str()) {
-        Some("png" | "exr") => output.with_extension(""),
-        _ => output.to_path_buf(),
-    };
     save_image(&img, &base)?;
     Ok(())
 }

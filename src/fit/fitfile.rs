@@ -236,9 +236,17 @@ pub(crate) fn check_fit_object(v: &serde_json::Value) -> Result<(), FitFileError
         None => Distribution::D3,
         Some(x) => {
             let d = x.as_str().and_then(Distribution::parse).ok_or_else(|| {
+                let names: Vec<&str> = ModelKind::TorranceSparrow
+                    .distributions()
+                    .iter()
+                    .map(|d| d.name())
+                    .collect();
                 err(
                     format!("key 'distribution': unknown distribution {x}"),
-                    "write d1, d2 or d3 (d3 for models without a choice)",
+                    format!(
+                        "write one of {} (d3 for models without a choice)",
+                        names.join(", ")
+                    ),
                 )
             })?;
             if kind.has_distribution() && !kind.distributions().contains(&d) {
@@ -709,7 +717,14 @@ pub fn pick_one(
                     format!(
                         "the fit is of channel {held} but the data's channel is {d}: a fit compared with another channel's data is meaningless"
                     ),
-                    format!("load the fit's channel with --channel {first}, or fit channel {d}"),
+                    // Data of one unnamed channel has no channel {first} to load.
+                    if d == "(unnamed)" {
+                        "fit this data and use that fit: brdfit fit DATA --json OUT".to_string()
+                    } else {
+                        format!(
+                            "load the fit's channel with --channel {first}, or fit channel {d}: brdfit fit DATA --channel {d} --json OUT"
+                        )
+                    },
                 ));
             }
             pick(

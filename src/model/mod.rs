@@ -389,14 +389,26 @@ impl ParamSpec {
     }
 
     /// Whether `v` lies in the fitter's box (the declared [lo, hi], `hi` also where it is not a
-    /// natural limit): every value a fit can return. A fit file holding another was edited.
+    /// natural limit, and a log-scale parameter strictly above its offset, as offset + e^u
+    /// always is: never n = 1, where F ≡ 0 holds the lobe at zero): every value a fit can
+    /// return. A fit file or scene holding another was edited.
     pub fn in_fit_box(&self, v: f64) -> bool {
-        self.admits(v) && v <= self.hi
+        let (low, strict) = self.box_floor();
+        self.admits(v) && (!strict || v > low) && v <= self.hi
+    }
+
+    /// The fitter's box's lower end and whether it is excluded: lo for a linear parameter,
+    /// the offset (excluded) for a log-scale one.
+    fn box_floor(&self) -> (f64, bool) {
+        match self.scale {
+            Scale::Linear => (self.lo, false),
+            Scale::Log { offset } => (offset, true),
+        }
     }
 
     /// The fitter's box as text, e.g. `1 < n ≤ 1e7` (see [`ParamSpec::in_fit_box`]).
     pub fn fit_box_text(&self) -> String {
-        let (low, strict) = self.floor();
+        let (low, strict) = self.box_floor();
         let op = if strict { "<" } else { "≤" };
         if self.hi.is_finite() {
             format!(

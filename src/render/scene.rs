@@ -65,6 +65,11 @@ pub const MAX_INTENSITY: f64 = 1e12;
 pub const MAX_TRIANGLES: usize = 4_000_000;
 /// Largest roughness-texture frequency and checker square size.
 pub const MAX_FREQUENCY: f64 = 1e6;
+/// Largest directional albedo (at any θi, by the quadrature `fit` uses to mark fits not
+/// usable) of a material given by `model` and `params`. Blinn's lobes may exceed 1 at grazing
+/// incidence, so 1 is not the limit; a million is no material (ps = 1e300 used to overflow
+/// the image, and the error named the output file).
+pub const MAX_ALBEDO: f64 = 1e6;
 
 #[derive(Deserialize)]
 #[serde(untagged)]
@@ -125,7 +130,7 @@ struct RoughSpec {
 struct MaterialSpec {
     model: Option<String>,
     distribution: Option<String>,
-    params: Option<BTreeMap<String, f64>>,
+    params: Option<toml::Spanned<BTreeMap<String, toml::Spanned<f64>>>>,
     fit: Option<String>,
     /// With `fit`: the model to take from a file of several (`fit --model all`).
     fit_model: Option<String>,
@@ -197,6 +202,27 @@ fn in_file_order<'de, D: serde::Deserializer<'de>>(
     let mut v = d.deserialize_map(Entries)?;
     v.sort_by_key(|(k, _)| k.span().start);
     Ok(v.into_iter().map(|(k, m)| (k.into_inner(), m)).collect())
+}
+
+/// An error at a line of the scene file (1-based): [`load_scene`] shows it as
+/// `FILE:LINE: message`, [`parse_scene`] as `line LINE: message`.
+#[derive(Debug)]
+struct AtLine {
+    line: usize,
+    msg: String,
+}
+
+impl std::fmt::Display for AtLine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "line {}: {}", self.line, self.msg)
+    }
+}
+
+impl std::error::Error for AtLine {}
+
+/// The 1-based line of byte `at` of `text`.
+fn line_of(text: &str, at: usize) -> usize {
+    text.get(..at).unwrap_or(text).matches('\n').count() + 1
 }
 
 /// A bound in a message: 1e6 rather than 1000000.
@@ -362,7 +388,7 @@ pub fn parse_scene_noted(text: &str, dir: &Path, notes: &mut Vec<String>) -> Res
     let mut names = Vec::new();
     let mut materials = Vec::new();
     for (name, m) in specs {
-        materials.push(material(name, m, dir, notes)?);
+        materials.push(material(name, m, dir, text, notes)?);
         names.push(name.clone());
     }
     let mut objects = Vec::new();
@@ -594,6 +620,79 @@ fn names_of(m: &[(String, MaterialSpec)]) -> String {
         .join(", ")
 }
 
+/// Material `name`'s model from its `params` (spans into `text`), each value within the
+/// bounds a fit file's are read with ([`crate::model::ParamSpec::in_fit_box`]) and the whole
+/// within [`MAX_ALBEDO`]; errors name the line, the key and the fix ([`AtLine`]).
+fn model_params(
+    name: &str,
+    kind: ModelKind,
+    dist: Distribution,
+    params: &toml::Spanned<BTreeMap<String, toml::Spanned<f64>>>,
+    text: &str,
+) -> Result<Model> {
+    let at = |span: std::ops::Range<usize>, what: String, fix: String| AtLine {
+        line: line_of(text, span.start),
+        msg: format!("material {name}: {what}\n  fix: {fix}"),
+    };
+    let label = kind.label(dist);
+    let names = kind.param_names(dist).join(", ");
+    let specs = kind.params(dist);
+    for (k, v) in params.get_ref() {
+        let Some(spec) = specs.iter().find(|s| s.name == k) else {
+            return Err(at(
+                v.span(),
+                format!("`params.{k}`: {label} has no parameter {k}"),
+                format!("remove {k}; {label} takes {names}"),
+            )
+            .into());
+        };
+        let x = *v.get_ref();
+        if !spec.in_fit_box(x) {
+            return Err(at(
+                v.span(),
+                format!(
+                    "`params.{k}` = {} is outside the range a fit can return: {}",
+                    show(x),
+                    spec.fit_box_text()
+                ),
+                format!("write a value with {}", spec.fit_box_text()),
+            )
+            .into());
+        }
+    }
+    let set: Vec<(String, f64)> = params
+        .get_ref()
+        .iter()
+        .map(|(k, v)| (k.clone(), *v.get_ref()))
+        .collect();
+    let model = Model::from_named(kind, dist, &set).map_err(|e| {
+        let fix = match &e {
+            crate::model::ModelError::Missing { name: p, .. } => {
+                format!("add {p} to params ({label} takes {names})")
+            }
+            crate::model::ModelError::Order { fix, .. } => fix.clone(),
+            _ => format!("give {names} within their bounds"),
+        };
+        at(params.span(), format!("`params`: {e}"), fix)
+    })?;
+    let (t, a) = crate::model::albedo::max_albedo(&model);
+    if !(a <= MAX_ALBEDO) {
+        return Err(at(
+            params.span(),
+            format!(
+                "`params` give a directional albedo of {} at θi = {t}° (the material would reflect that many times the light it receives, and the image overflow)",
+                crate::model::readable(a)
+            ),
+            format!(
+                "lower ps or pd: the albedo may be at most {} (a physical material's is at most 1)",
+                show(MAX_ALBEDO)
+            ),
+        )
+        .into());
+    }
+    Ok(model)
+}
+
 /// Material `name`'s `distribution` key, or an error naming the ones there are.
 fn distribution(name: &str, d: &str) -> Result<Distribution> {
     Distribution::parse(d).ok_or_else(|| {
@@ -601,7 +700,13 @@ fn distribution(name: &str, d: &str) -> Result<Distribution> {
     })
 }
 
-fn material(name: &str, m: &MaterialSpec, dir: &Path, notes: &mut Vec<String>) -> Result<Material> {
+fn material(
+    name: &str,
+    m: &MaterialSpec,
+    dir: &Path,
+    text: &str,
+    notes: &mut Vec<String>,
+) -> Result<Material> {
     let key = |k: &str| format!("`materials.{name}.{k}`");
     // A colour fit: the lobe with ps = pd = 1, its channels' pd and ps as colours.
     let mut fit_colour = (DVec3::ONE, DVec3::ONE);
@@ -643,15 +748,13 @@ fn material(name: &str, m: &MaterialSpec, dir: &Path, notes: &mut Vec<String>) -
                 Some(d) => distribution(name, d)?,
                 None => Distribution::D3,
             };
-            let set: Vec<(String, f64)> = match &m.params {
-                Some(p) => p.clone().into_iter().collect(),
-                None => bail!(
+            let Some(params) = &m.params else {
+                bail!(
                     "material {name} needs `params`\n  fix: add params = {{ … }} with {}",
                     kind.param_names(dist).join(", ")
-                ),
+                );
             };
-            Model::from_named(kind, dist, &set)
-                .map_err(|e| anyhow!("material {name}: `params`: {e}"))?
+            model_params(name, kind, dist, params, text)?
         }
         (None, None) => bail!(
             "material {name} has neither `model` nor `fit`\n  fix: add model = \"lambert\" and params = {{ pd = 0.5 }}, or fit = \"FILE.json\""
@@ -816,8 +919,12 @@ pub fn load_scene_noted(path: &Path) -> Result<(Scene, Vec<String>)> {
     let text = crate::input::read_to_string_limited(path, crate::input::Input::Scene)?;
     let dir = path.parent().unwrap_or(Path::new("."));
     let mut notes = Vec::new();
-    let s =
-        parse_scene_noted(&text, dir, &mut notes).with_context(|| path.display().to_string())?;
+    let s = parse_scene_noted(&text, dir, &mut notes).map_err(|e| {
+        match e.downcast_ref::<AtLine>() {
+            Some(at) => anyhow!("{}:{}: {}", path.display(), at.line, at.msg),
+            None => e.context(path.display().to_string()),
+        }
+    })?;
     Ok((s, notes))
 }
 

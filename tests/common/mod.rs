@@ -20,4 +20,13 @@ pub fn write(dir: &Path, name: &str, body: &[u8]) -> PathBuf {
     std::fs::write(&p, body).unwrap();
     p
 }
+
+/// A fit object written by hand (the keys the README documents), for the fit-file tests.
+pub fn fit_object(model: &str, dist: &str, channel: &str, params: &str, extra: &str) -> String {
+    format!(
+        r#"{{"model": "{model}", "distribution": "{dist}", "loss": "log", "method": "lm",
+  "channel": "{channel}", "params": {params}, "cost": 1.0, "rmse": 0.01,
+  "samples_used": 1000, "bic": -5000.0, "aic": -5010.0, "n_free": 4{extra}}}"#
+    )
+}
 pub mod sphere;
