@@ -609,11 +609,17 @@ pub fn refit_on_pixels(
     unscaled(run(best.params.clone(), verify).unwrap_or(best)).0
 }
 
-fn render_with(scene: &Scene, material: crate::render::Material) -> (Image, f64) {
+/// `scene` rendered with `material` as its test object, reading the case's geometry pass
+/// `corners` ([`Scene::corners`]); the image and its wall time (s).
+fn render_with(
+    scene: &Scene,
+    corners: &crate::render::Corners,
+    material: crate::render::Material,
+) -> (Image, f64) {
     let mut s = scene.clone();
     s.materials[0] = material;
     let t = Instant::now();
-    let img = s.render(&|| {});
+    let img = s.render_with_corners(Some(corners), &|| {});
     (img, t.elapsed().as_secs_f64())
 }
 
@@ -944,7 +950,11 @@ fn run_case(
         ..base.clone()
     };
     let table = reference.measured.then(|| reference.table.clone());
-    let (ref_img, reference_seconds) = render_with(&case.scene, material(reference.fill, table));
+    // One geometry pass (primary hits and the light's geometry at every pixel corner) for
+    // every render of the case: the reference, the folds and both fits of each candidate.
+    let corners = case.scene.corners();
+    let (ref_img, reference_seconds) =
+        render_with(&case.scene, &corners, material(reference.fill, table));
     let (samples, mask, lit) = scene_samples(&case.scene, 0, &|g| reference.brdf(g));
     let measured_share = reference.measured_share(&samples);
     progress(&format!(
@@ -963,6 +973,7 @@ fn run_case(
         || {
             let cross = verdict::cross_validate_against(
                 &case.scene,
+                &corners,
                 &prepared,
                 &reference.folds,
                 &mask,
@@ -979,7 +990,11 @@ fn run_case(
             ));
             cross
         },
-        || candidates(case, &samples, &prepared, &mask, global, opts, progress),
+        || {
+            candidates(
+                case, &corners, &samples, &prepared, &mask, global, opts, progress,
+            )
+        },
     );
     let (reference_error, reference_error_map, worst) = cross;
     let (err_p99, err_mean) = reference_error
@@ -1045,8 +1060,10 @@ fn run_case(
 /// Each candidate's fit, renders and judgement against the prepared reference, in parallel
 /// (every step is deterministic); each progress line as its candidate finishes (so a bar
 /// moves), the rows in candidate order.
+#[allow(clippy::too_many_arguments)]
 fn candidates(
     case: &Case,
+    corners: &crate::render::Corners,
     samples: &Dataset,
     prepared: &Prepared,
     mask: &[bool],
@@ -1078,11 +1095,13 @@ fn candidates(
             // The two fits rendered and judged side by side.
             let ((render_seconds, scene_fit), global_fit) = rayon::join(
                 || {
-                    let (img, seconds) = render_with(&case.scene, material(fitted.model_for(0)));
+                    let (img, seconds) =
+                        render_with(&case.scene, corners, material(fitted.model_for(0)));
                     (seconds, Judged::new(prepared, img, mask, fitted.usable()))
                 },
                 || {
-                    let (img, _) = render_with(&case.scene, material(global[k].model_for(0)));
+                    let (img, _) =
+                        render_with(&case.scene, corners, material(global[k].model_for(0)));
                     Judged::new(prepared, img, mask, global[k].usable())
                 },
             );
