@@ -651,57 +651,67 @@ impl<'a> Prepared<'a> {
     }
 }
 
-/// The errors of `test` against a prepared reference over `mask`: ꟻLIP's summary and map,
-/// ΔE_ITP's summary, RMSE.
-fn errors_against(
-    reference: &Prepared,
-    test: &Image,
-    mask: &[bool],
-) -> (Summary, Vec<f32>, Summary, f64) {
-    let flip = reference.flip(test);
+/// ΔE_ITP's summary and the RMSE of `test` against a prepared reference over `mask`.
+fn other_errors(reference: &Prepared, test: &Image, mask: &[bool]) -> (Summary, f64) {
     let de =
         compare::delta_e_itp_against(&reference.image.pixels, &reference.itp, &test.pixels, mask);
-    let f = compare::summarise(&flip, mask, FLIP_LEVEL);
-    let d = compare::summarise(&de, mask, 1.0);
     (
-        f,
-        flip,
-        d,
+        compare::summarise(&de, mask, 1.0),
         compare::rmse(&reference.image.pixels, &test.pixels, mask),
     )
 }
 
-/// One fit's render and its errors against the reference.
+/// One fit's render and its errors against the reference: ꟻLIP's summary and map, and
+/// (ΔE_ITP's summary, RMSE) once computed ([`Judged::complete`]; at once when the threshold's
+/// metric reads them).
 struct Judged {
     image: Image,
     flip: Summary,
     map: Vec<f32>,
-    delta_e: Summary,
-    rmse: f64,
+    others: Option<(Summary, f64)>,
     usable: bool,
 }
 
 impl Judged {
-    fn new(reference: &Prepared, image: Image, mask: &[bool], usable: bool) -> Judged {
-        let (flip, map, delta_e, rmse) = errors_against(reference, &image, mask);
+    fn new(
+        reference: &Prepared,
+        image: Image,
+        mask: &[bool],
+        usable: bool,
+        metric: Metric,
+    ) -> Judged {
+        let map = reference.flip(&image);
+        let flip = compare::summarise(&map, mask, FLIP_LEVEL);
+        let others = (!matches!(metric, Metric::FlipMean | Metric::FlipP99))
+            .then(|| other_errors(reference, &image, mask));
         Judged {
             image,
             flip,
             map,
-            delta_e,
-            rmse,
+            others,
             usable,
         }
     }
 
-    /// The error under `metric`.
+    /// ΔE_ITP's summary and RMSE, computed now if not yet (only the fit a row judges needs
+    /// them).
+    fn complete(&mut self, reference: &Prepared, mask: &[bool]) -> (Summary, f64) {
+        let image = &self.image;
+        *self
+            .others
+            .get_or_insert_with(|| other_errors(reference, image, mask))
+    }
+
+    /// The error under `metric` (ΔE_ITP and RMSE as NaN before [`Judged::complete`]; `new`
+    /// computes them when `metric` reads them).
     fn error(&self, metric: Metric) -> f64 {
+        let (delta_e, rmse) = self.others.map_or((None, f64::NAN), |(d, r)| (Some(d), r));
         match metric {
             Metric::FlipMean => compare::summarise(&self.map, &[], FLIP_LEVEL).mean,
             Metric::FlipP99 => self.flip.p99,
-            Metric::DeltaEItpMean => self.delta_e.mean,
-            Metric::DeltaEItpP99 => self.delta_e.p99,
-            Metric::Rmse => self.rmse,
+            Metric::DeltaEItpMean => delta_e.map_or(f64::NAN, |d| d.mean),
+            Metric::DeltaEItpP99 => delta_e.map_or(f64::NAN, |d| d.p99),
+            Metric::Rmse => rmse,
         }
     }
 }
@@ -1077,6 +1087,7 @@ fn candidates(
         measured: None,
         ..base.clone()
     };
+    let metric = opts.threshold.metric;
     opts.candidates
         .par_iter()
         .enumerate()
@@ -1097,21 +1108,24 @@ fn candidates(
                 || {
                     let (img, seconds) =
                         render_with(&case.scene, corners, material(fitted.model_for(0)));
-                    (seconds, Judged::new(prepared, img, mask, fitted.usable()))
+                    let judged = Judged::new(prepared, img, mask, fitted.usable(), metric);
+                    (seconds, judged)
                 },
                 || {
                     let (img, _) =
                         render_with(&case.scene, corners, material(global[k].model_for(0)));
-                    Judged::new(prepared, img, mask, global[k].usable())
+                    Judged::new(prepared, img, mask, global[k].usable(), metric)
                 },
             );
             let scene_p99 = scene_fit.flip.p99;
             let global_p99 = global_fit.flip.p99;
             let used = used_fit(&scene_fit, &global_fit, opts.threshold.metric);
-            let judged = match used {
+            // ΔE_ITP and RMSE of the fit judged alone (the other's are not reported).
+            let mut judged = match used {
                 FitUsed::SceneWeighted => scene_fit,
                 FitUsed::Global => global_fit,
             };
+            let (delta_e, rmse) = judged.complete(prepared, mask);
             let name = model_name(kind, dist);
             let line = format!(
                 "{}: {name}: ꟻLIP p99 {scene_p99:.3} scene-weighted fit{}, {global_p99:.3} global \
@@ -1135,9 +1149,9 @@ fn candidates(
                 flip_mean: compare::summarise(&judged.map, &[], FLIP_LEVEL).mean,
                 flip_p99: judged.flip.p99,
                 flip_above: judged.flip.above,
-                delta_e_itp_mean: judged.delta_e.mean,
-                delta_e_itp_p99: judged.delta_e.p99,
-                rmse: judged.rmse,
+                delta_e_itp_mean: delta_e.mean,
+                delta_e_itp_p99: delta_e.p99,
+                rmse,
                 scene_flip_p99: scene_p99,
                 global_flip_p99: global_p99,
                 fit_seconds,

@@ -343,9 +343,10 @@ impl GonioGrid {
             let (st, ct) = (sk * ca - ck * sa, ck * ca + sk * sa);
             let x = e[0] * ct - e[2] * st;
             let z = e[2] * ct + e[0] * st;
-            // The rotated view's polar angle: atan2 of its length off the normal (the plain
-            // square root: nothing here can overflow, unlike what `hypot` guards against).
-            self.in_slice(k, (x * x + e[1] * e[1]).sqrt().atan2(z), e[1].atan2(x))
+            // The rotated view's polar angle from its z (a rotation keeps the view a unit
+            // vector): one acos instead of a hypot and an atan2, within 1e-13 rad but for
+            // views within 0.1° of the normal, where the rounding of z gives at most 1.5e-8.
+            self.in_slice(k, z.clamp(-1.0, 1.0).acos(), e[1].atan2(x))
         };
         let n = self.slices.len();
         if a <= self.slices[0] {
