@@ -1088,7 +1088,7 @@ impl Scene {
         );
         let cam = self.camera.frame();
         let per_point = self.lights.len();
-        let rows: Vec<(Vec<Option<(usize, f64, DVec3)>>, Vec<LightAt>)> = (0..h)
+        let rows: Vec<(Vec<Option<Hit>>, Vec<LightAt>)> = (0..h)
             .into_par_iter()
             .map(|y| {
                 let mut hits = Vec::with_capacity(w);
@@ -1344,6 +1344,9 @@ struct Subdivision<'a> {
     corners: Option<&'a Corners>,
 }
 
+/// A ray's nearest hit: object index, t, outward normal.
+type Hit = (usize, f64, DVec3);
+
 /// What a light contributes at a surface point before any material ([`Scene::light_at`]).
 #[derive(Clone, Copy, Debug)]
 pub enum LightAt {
@@ -1373,7 +1376,7 @@ pub struct Corners {
     /// Number of lights it was made with.
     per_point: usize,
     /// Nearest hit per corner, x fastest ((W + 1) × (H + 1)).
-    hits: Vec<Option<(usize, f64, DVec3)>>,
+    hits: Vec<Option<Hit>>,
     /// Each light's contribution per corner (`per_point` per corner; `Behind` where the
     /// ray misses).
     lights: Vec<LightAt>,
