@@ -6,7 +6,12 @@
 //! filtered on every call, as `choose` did before), the Rust port preparing the reference on
 //! each call, and against a reference prepared once (what `choose` does now).
 //!
-//! Run: `cargo bench --bench choose` (`-- flip` for the ꟻLIP group alone).
+//! `render_fig7_512_shared` renders as `choose` does: reading the case's geometry pass
+//! (`Scene::corners`, itself timed as `corners`), with the Torrance–Sparrow D3 fit and with the
+//! measurement reconstructed on its goniometer grid (`reconstruct`, `GonioGrid` lookups).
+//!
+//! Run: `cargo bench --bench choose` (`-- flip` for the ꟻLIP group alone, `-- shared` for the
+//! renders as `choose` makes them).
 
 use brdfit::choose::{RENDER_COST_ORDER, fig7_cases, model_name};
 use brdfit::fit::{self, FitOptions};
@@ -106,5 +111,43 @@ fn bench_flip(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench, bench_flip);
+fn bench_shared(c: &mut Criterion) {
+    let ds = brdfit::load(
+        std::path::Path::new("data/merl-alumina-oxide.csv"),
+        &Default::default(),
+    )
+    .unwrap();
+    let ds = brdfit::data::representative_channel(&ds).unwrap().0;
+    let mut o = FitOptions::new(brdfit::model::ModelKind::TorranceSparrow);
+    o.dist = brdfit::model::Distribution::D3;
+    let fill = fit::fit(&ds, &o).unwrap().remove(0).model_for(0);
+    let table = Arc::new(brdfit::render::reconstruct::reconstruct(
+        &ds,
+        Dims::for_samples(ds.len()),
+        fill,
+    ));
+    let mut g = c.benchmark_group("render_fig7_512_shared");
+    g.sample_size(10).measurement_time(Duration::from_secs(6));
+    for case in fig7_cases(512) {
+        g.bench_function(format!("{}/corners", case.name), |b| {
+            b.iter(|| case.scene.corners())
+        });
+        let corners = case.scene.corners();
+        let mut s = case.scene.clone();
+        s.materials[0].model = fill;
+        g.bench_function(format!("{}/torrance-sparrow-d3", case.name), |b| {
+            b.iter(|| s.render_with_corners(Some(&corners), &|| {}))
+        });
+        s.materials[0].measured = Some(table.clone());
+        g.bench_function(format!("{}/measured-grid", case.name), |b| {
+            b.iter(|| s.render_with_corners(Some(&corners), &|| {}))
+        });
+        g.bench_function(format!("{}/measured-grid-unshared", case.name), |b| {
+            b.iter(|| s.render(&|| {}))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench, bench_flip, bench_shared);
 criterion_main!(benches);

@@ -609,11 +609,17 @@ pub fn refit_on_pixels(
     unscaled(run(best.params.clone(), verify).unwrap_or(best)).0
 }
 
-fn render_with(scene: &Scene, material: crate::render::Material) -> (Image, f64) {
+/// `scene` rendered with `material` as its test object, reading the case's geometry pass
+/// `corners` ([`Scene::corners`]); the image and its wall time (s).
+fn render_with(
+    scene: &Scene,
+    corners: &crate::render::Corners,
+    material: crate::render::Material,
+) -> (Image, f64) {
     let mut s = scene.clone();
     s.materials[0] = material;
     let t = Instant::now();
-    let img = s.render(&|| {});
+    let img = s.render_with_corners(Some(corners), &|| {});
     (img, t.elapsed().as_secs_f64())
 }
 
@@ -645,57 +651,67 @@ impl<'a> Prepared<'a> {
     }
 }
 
-/// The errors of `test` against a prepared reference over `mask`: ꟻLIP's summary and map,
-/// ΔE_ITP's summary, RMSE.
-fn errors_against(
-    reference: &Prepared,
-    test: &Image,
-    mask: &[bool],
-) -> (Summary, Vec<f32>, Summary, f64) {
-    let flip = reference.flip(test);
+/// ΔE_ITP's summary and the RMSE of `test` against a prepared reference over `mask`.
+fn other_errors(reference: &Prepared, test: &Image, mask: &[bool]) -> (Summary, f64) {
     let de =
         compare::delta_e_itp_against(&reference.image.pixels, &reference.itp, &test.pixels, mask);
-    let f = compare::summarise(&flip, mask, FLIP_LEVEL);
-    let d = compare::summarise(&de, mask, 1.0);
     (
-        f,
-        flip,
-        d,
+        compare::summarise(&de, mask, 1.0),
         compare::rmse(&reference.image.pixels, &test.pixels, mask),
     )
 }
 
-/// One fit's render and its errors against the reference.
+/// One fit's render and its errors against the reference: ꟻLIP's summary and map, and
+/// (ΔE_ITP's summary, RMSE) once computed ([`Judged::complete`]; at once when the threshold's
+/// metric reads them).
 struct Judged {
     image: Image,
     flip: Summary,
     map: Vec<f32>,
-    delta_e: Summary,
-    rmse: f64,
+    others: Option<(Summary, f64)>,
     usable: bool,
 }
 
 impl Judged {
-    fn new(reference: &Prepared, image: Image, mask: &[bool], usable: bool) -> Judged {
-        let (flip, map, delta_e, rmse) = errors_against(reference, &image, mask);
+    fn new(
+        reference: &Prepared,
+        image: Image,
+        mask: &[bool],
+        usable: bool,
+        metric: Metric,
+    ) -> Judged {
+        let map = reference.flip(&image);
+        let flip = compare::summarise(&map, mask, FLIP_LEVEL);
+        let others = (!matches!(metric, Metric::FlipMean | Metric::FlipP99))
+            .then(|| other_errors(reference, &image, mask));
         Judged {
             image,
             flip,
             map,
-            delta_e,
-            rmse,
+            others,
             usable,
         }
     }
 
-    /// The error under `metric`.
+    /// ΔE_ITP's summary and RMSE, computed now if not yet (only the fit a row judges needs
+    /// them).
+    fn complete(&mut self, reference: &Prepared, mask: &[bool]) -> (Summary, f64) {
+        let image = &self.image;
+        *self
+            .others
+            .get_or_insert_with(|| other_errors(reference, image, mask))
+    }
+
+    /// The error under `metric` (ΔE_ITP and RMSE as NaN before [`Judged::complete`]; `new`
+    /// computes them when `metric` reads them).
     fn error(&self, metric: Metric) -> f64 {
+        let (delta_e, rmse) = self.others.map_or((None, f64::NAN), |(d, r)| (Some(d), r));
         match metric {
             Metric::FlipMean => compare::summarise(&self.map, &[], FLIP_LEVEL).mean,
             Metric::FlipP99 => self.flip.p99,
-            Metric::DeltaEItpMean => self.delta_e.mean,
-            Metric::DeltaEItpP99 => self.delta_e.p99,
-            Metric::Rmse => self.rmse,
+            Metric::DeltaEItpMean => delta_e.map_or(f64::NAN, |d| d.mean),
+            Metric::DeltaEItpP99 => delta_e.map_or(f64::NAN, |d| d.p99),
+            Metric::Rmse => rmse,
         }
     }
 }
@@ -944,7 +960,11 @@ fn run_case(
         ..base.clone()
     };
     let table = reference.measured.then(|| reference.table.clone());
-    let (ref_img, reference_seconds) = render_with(&case.scene, material(reference.fill, table));
+    // One geometry pass (primary hits and the light's geometry at every pixel corner) for
+    // every render of the case: the reference, the folds and both fits of each candidate.
+    let corners = case.scene.corners();
+    let (ref_img, reference_seconds) =
+        render_with(&case.scene, &corners, material(reference.fill, table));
     let (samples, mask, lit) = scene_samples(&case.scene, 0, &|g| reference.brdf(g));
     let measured_share = reference.measured_share(&samples);
     progress(&format!(
@@ -963,6 +983,7 @@ fn run_case(
         || {
             let cross = verdict::cross_validate_against(
                 &case.scene,
+                &corners,
                 &prepared,
                 &reference.folds,
                 &mask,
@@ -979,7 +1000,11 @@ fn run_case(
             ));
             cross
         },
-        || candidates(case, &samples, &prepared, &mask, global, opts, progress),
+        || {
+            candidates(
+                case, &corners, &samples, &prepared, &mask, global, opts, progress,
+            )
+        },
     );
     let (reference_error, reference_error_map, worst) = cross;
     let (err_p99, err_mean) = reference_error
@@ -1045,8 +1070,10 @@ fn run_case(
 /// Each candidate's fit, renders and judgement against the prepared reference, in parallel
 /// (every step is deterministic); each progress line as its candidate finishes (so a bar
 /// moves), the rows in candidate order.
+#[allow(clippy::too_many_arguments)]
 fn candidates(
     case: &Case,
+    corners: &crate::render::Corners,
     samples: &Dataset,
     prepared: &Prepared,
     mask: &[bool],
@@ -1060,6 +1087,7 @@ fn candidates(
         measured: None,
         ..base.clone()
     };
+    let metric = opts.threshold.metric;
     opts.candidates
         .par_iter()
         .enumerate()
@@ -1078,21 +1106,26 @@ fn candidates(
             // The two fits rendered and judged side by side.
             let ((render_seconds, scene_fit), global_fit) = rayon::join(
                 || {
-                    let (img, seconds) = render_with(&case.scene, material(fitted.model_for(0)));
-                    (seconds, Judged::new(prepared, img, mask, fitted.usable()))
+                    let (img, seconds) =
+                        render_with(&case.scene, corners, material(fitted.model_for(0)));
+                    let judged = Judged::new(prepared, img, mask, fitted.usable(), metric);
+                    (seconds, judged)
                 },
                 || {
-                    let (img, _) = render_with(&case.scene, material(global[k].model_for(0)));
-                    Judged::new(prepared, img, mask, global[k].usable())
+                    let (img, _) =
+                        render_with(&case.scene, corners, material(global[k].model_for(0)));
+                    Judged::new(prepared, img, mask, global[k].usable(), metric)
                 },
             );
             let scene_p99 = scene_fit.flip.p99;
             let global_p99 = global_fit.flip.p99;
             let used = used_fit(&scene_fit, &global_fit, opts.threshold.metric);
-            let judged = match used {
+            // ΔE_ITP and RMSE of the fit judged alone (the other's are not reported).
+            let mut judged = match used {
                 FitUsed::SceneWeighted => scene_fit,
                 FitUsed::Global => global_fit,
             };
+            let (delta_e, rmse) = judged.complete(prepared, mask);
             let name = model_name(kind, dist);
             let line = format!(
                 "{}: {name}: ꟻLIP p99 {scene_p99:.3} scene-weighted fit{}, {global_p99:.3} global \
@@ -1116,9 +1149,9 @@ fn candidates(
                 flip_mean: compare::summarise(&judged.map, &[], FLIP_LEVEL).mean,
                 flip_p99: judged.flip.p99,
                 flip_above: judged.flip.above,
-                delta_e_itp_mean: judged.delta_e.mean,
-                delta_e_itp_p99: judged.delta_e.p99,
-                rmse: judged.rmse,
+                delta_e_itp_mean: delta_e.mean,
+                delta_e_itp_p99: delta_e.p99,
+                rmse,
                 scene_flip_p99: scene_p99,
                 global_flip_p99: global_p99,
                 fit_seconds,

@@ -244,12 +244,13 @@ pub fn cross_validate(
     material: &(dyn Fn(Arc<Tabulated>) -> Material + Sync),
 ) -> (Option<ReferenceError>, Vec<f32>, Option<FoldKind>) {
     let prepared = super::Prepared::new(reference, mask);
-    cross_validate_against(scene, &prepared, folds, mask, material)
+    cross_validate_against(scene, &scene.corners(), &prepared, folds, mask, material)
 }
 
 /// [`cross_validate`] against a reference prepared once for all its comparisons.
 pub(super) fn cross_validate_against(
     scene: &Scene,
+    corners: &crate::render::Corners,
     reference: &super::Prepared,
     folds: &[Fold],
     mask: &[bool],
@@ -262,7 +263,7 @@ pub(super) fn cross_validate_against(
     let judged: Vec<_> = folds
         .par_iter()
         .map(|fold| {
-            let (img, _) = super::render_with(scene, material(fold.table.clone()));
+            let (img, _) = super::render_with(scene, corners, material(fold.table.clone()));
             let map = reference.flip(&img);
             let f = crate::render::compare::summarise(&map, mask, super::FLIP_LEVEL);
             (f, map)

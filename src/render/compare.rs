@@ -130,17 +130,23 @@ pub struct Summary {
 /// object) are counted, not sorted: adding 0 changes no sum, so the mean is the same number.
 pub fn summarise(map: &[f32], mask: &[bool], level: f64) -> Summary {
     let mut zeros = 0usize;
-    let mut v: Vec<f64> = Vec::new();
+    let mut nan = false;
+    // The nonzero values as keys in f32's total order (sign flips the rest, else the sign
+    // bit is set), so an integer sort orders them; equal keys are equal values, so an
+    // unstable sort gives the same sequence.
+    let mut keys: Vec<u32> = Vec::new();
     for (i, &e) in map.iter().enumerate() {
         if mask.is_empty() || mask[i] {
             if e == 0.0 {
                 zeros += 1;
             } else {
-                v.push(e as f64);
+                nan |= e.is_nan();
+                let b = e.to_bits();
+                keys.push(if b >> 31 == 1 { !b } else { b | 1 << 31 });
             }
         }
     }
-    let n = v.len() + zeros;
+    let n = keys.len() + zeros;
     if n == 0 {
         return Summary {
             mean: 0.0,
@@ -148,7 +154,17 @@ pub fn summarise(map: &[f32], mask: &[bool], level: f64) -> Summary {
             above: 0.0,
         };
     }
-    v.sort_by(f64::total_cmp);
+    let unkey = |k: u32| f32::from_bits(if k >> 31 == 1 { k & !(1 << 31) } else { !k }) as f64;
+    let v: Vec<f64> = if nan {
+        // A NaN's payload may change on widening: sort the widened values themselves.
+        let mut v: Vec<f64> = keys.into_iter().map(unkey).collect();
+        v.sort_by(f64::total_cmp);
+        v
+    } else {
+        // Widening f32 → f64 is exact and keeps the order.
+        keys.sort_unstable();
+        keys.into_iter().map(unkey).collect()
+    };
     // In the whole ascending order the zeros stand after the negative values.
     let negative = v.partition_point(|&e| e < 0.0);
     let at = |k: usize| match k {

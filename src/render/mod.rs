@@ -805,7 +805,7 @@ impl Scene {
     /// [`Scene::trace`], folding what the ray tree hit into `key`.
     fn trace_key(&self, r: &Ray, depth: u32, weight: f64, c: &Counters, key: &mut u64) -> DVec3 {
         match self.intersect(r, f64::INFINITY) {
-            Some(hit) => self.shade(r, hit, depth, weight, c, key),
+            Some(hit) => self.shade(r, hit, depth, weight, c, key, None),
             None => {
                 *key = mix(*key, MISSED);
                 self.background
@@ -813,7 +813,47 @@ impl Scene {
         }
     }
 
-    /// Radiance along `r` given its nearest hit (object, t, outward normal).
+    /// The surface a ray meets at its hit (t, outward normal): the point, whether the ray
+    /// comes from inside, the normal facing the ray, the direction to the eye, and the offset
+    /// that starts secondary rays off the surface.
+    #[inline]
+    fn surface(r: &Ray, t: f64, n_out: DVec3) -> (DVec3, bool, DVec3, DVec3, f64) {
+        let p = r.o + t * r.d;
+        let inside = n_out.dot(r.d) > 0.0;
+        let n = if inside { -n_out } else { n_out };
+        let e = -r.d;
+        let scale = p.abs().max_element().max(1.0);
+        (p, inside, n, e, 1e-7 * scale)
+    }
+
+    /// What `light` contributes at surface point `p` (normal `n`, eye direction `e`, offset
+    /// `eps`) before any material: behind the surface (no shadow ray), shadowed, or lit with
+    /// the geometry the models read.
+    #[inline]
+    fn light_at(&self, light: &Light, p: DVec3, n: DVec3, e: DVec3, eps: f64) -> LightAt {
+        let (ldir, dist, irr) = light.toward(p);
+        if n.dot(ldir) <= 0.0 || n.dot(e) <= 0.0 {
+            return LightAt::Behind;
+        }
+        if self.occluded(
+            &Ray {
+                o: p + eps * n,
+                d: ldir,
+            },
+            dist - 2.0 * eps,
+        ) {
+            return LightAt::Shadowed;
+        }
+        LightAt::Lit {
+            g: Geometry::from_vectors(n.to_array(), ldir.to_array(), e.to_array()),
+            n_dot_l: n.dot(ldir),
+            irr,
+        }
+    }
+
+    /// Radiance along `r` given its nearest hit (object, t, outward normal); `lit`, when
+    /// given, holds each light's [`Scene::light_at`] there, computed beforehand ([`Corners`]).
+    #[allow(clippy::too_many_arguments)]
     fn shade(
         &self,
         r: &Ray,
@@ -822,22 +862,18 @@ impl Scene {
         weight: f64,
         c: &Counters,
         key: &mut u64,
+        lit: Option<&[LightAt]>,
     ) -> DVec3 {
         let obj = &self.objects[oi];
         *key = mix(*key, oi as u64);
         let m = &self.materials[obj.material];
-        let p = r.o + t * r.d;
+        let (p, inside, n, e, eps) = Self::surface(r, t, n_out);
         // Texture coordinates only where a texture reads them.
         let uv = if m.checker.is_some() || m.roughness.is_some() {
             obj.uv(p, n_out)
         } else {
             (0.0, 0.0)
         };
-        let inside = n_out.dot(r.d) > 0.0;
-        let n = if inside { -n_out } else { n_out };
-        let e = -r.d;
-        let scale = p.abs().max_element().max(1.0);
-        let eps = 1e-7 * scale;
         let albedo = m.checker.map_or(m.color, |ch| {
             let (i, j) = ch.cell(uv);
             *key = mix(mix(*key, i as u64), j as u64);
@@ -846,31 +882,30 @@ impl Scene {
         let pd = m.pd();
         let mut out = self.ambient * albedo * pd;
         for (li, light) in self.lights.iter().enumerate() {
-            let (ldir, dist, irr) = light.toward(p);
-            if n.dot(ldir) <= 0.0 || n.dot(e) <= 0.0 {
-                continue;
-            }
-            Counters::bump(&c.shadow);
-            if self.occluded(
-                &Ray {
-                    o: p + eps * n,
-                    d: ldir,
-                },
-                dist - 2.0 * eps,
-            ) {
-                *key = mix(*key, SHADOWED | li as u64);
-                continue;
-            }
+            let at = match lit {
+                Some(lit) => lit[li],
+                None => self.light_at(light, p, n, e, eps),
+            };
+            let (g, n_dot_l, irr) = match at {
+                LightAt::Behind => continue,
+                LightAt::Shadowed => {
+                    Counters::bump(&c.shadow);
+                    *key = mix(*key, SHADOWED | li as u64);
+                    continue;
+                }
+                LightAt::Lit { g, n_dot_l, irr } => {
+                    Counters::bump(&c.shadow);
+                    (g, n_dot_l, irr)
+                }
+            };
             // A Lambert surface needs only N·L; the other models the whole geometry.
             if let Some(t) = &m.measured {
-                let g = Geometry::from_vectors(n.to_array(), ldir.to_array(), e.to_array());
                 out += albedo * (t.brdf(&g) * g.nl) * irr;
                 continue;
             }
             let (i_d, i_s) = if m.model.kind == ModelKind::Lambert {
-                (pd * n.dot(ldir), 0.0)
+                (pd * n_dot_l, 0.0)
             } else {
-                let g = Geometry::from_vectors(n.to_array(), ldir.to_array(), e.to_array());
                 (pd * g.nl, m.specular(&g, uv))
             };
             out += (albedo * i_d + m.specular * i_s) * irr * std::f64::consts::FRAC_1_PI;
@@ -1000,7 +1035,20 @@ impl Scene {
             (x, y)
         };
         let r = cam.ray(x, y);
-        let hit = self.intersect(&r, f64::INFINITY);
+        // At an integer corner the hit and the lights' geometry are in the table when one
+        // is given (the positions are exact: no jitter).
+        let cached = sub
+            .corners
+            .filter(|_| sub.jitter_cells == 0.0)
+            .and_then(|k| k.index(x, y));
+        let hit = match (cached, sub.corners) {
+            (Some(i), Some(k)) => k.hits[i],
+            _ => self.intersect(&r, f64::INFINITY),
+        };
+        let lit = match (cached, sub.corners) {
+            (Some(i), Some(k)) => Some(&k.lights[i * k.per_point..(i + 1) * k.per_point]),
+            _ => None,
+        };
         // Whitted's small-object test: an object whose bounding sphere is smaller than the
         // sample footprint gets a minimum radius r_min = footprint·distance; a ray passing
         // within r_min of its centre without hitting it flags the square for subdivision.
@@ -1017,7 +1065,7 @@ impl Scene {
         // The primary hit is already known: shade it without intersecting again.
         let mut key = 0;
         let color = match hit {
-            Some(h) => self.shade(&r, h, 0, 1.0, c, &mut key),
+            Some(h) => self.shade(&r, h, 0, 1.0, c, &mut key, lit),
             None => {
                 key = mix(key, MISSED);
                 self.background
@@ -1031,8 +1079,65 @@ impl Scene {
         }
     }
 
+    /// The geometry pass [`Scene::render_with_corners`] reads ([`Corners`]), rows in
+    /// parallel.
+    pub fn corners(&self) -> Corners {
+        let (w, h) = (
+            self.camera.width as usize + 1,
+            self.camera.height as usize + 1,
+        );
+        let cam = self.camera.frame();
+        let per_point = self.lights.len();
+        let rows: Vec<(Vec<Option<Hit>>, Vec<LightAt>)> = (0..h)
+            .into_par_iter()
+            .map(|y| {
+                let mut hits = Vec::with_capacity(w);
+                let mut lights = Vec::with_capacity(w * per_point);
+                for x in 0..w {
+                    let r = cam.ray(x as f64, y as f64);
+                    let hit = self.intersect(&r, f64::INFINITY);
+                    hits.push(hit);
+                    match hit {
+                        Some((_, t, n_out)) => {
+                            let (p, _, n, e, eps) = Self::surface(&r, t, n_out);
+                            lights
+                                .extend(self.lights.iter().map(|l| self.light_at(l, p, n, e, eps)));
+                        }
+                        None => lights.extend((0..per_point).map(|_| LightAt::Behind)),
+                    }
+                }
+                (hits, lights)
+            })
+            .collect();
+        let mut hits = Vec::with_capacity(w * h);
+        let mut lights = Vec::with_capacity(w * h * per_point);
+        for (a, b) in rows {
+            hits.extend(a);
+            lights.extend(b);
+        }
+        Corners {
+            camera: self.camera,
+            per_point,
+            hits,
+            lights,
+        }
+    }
+
     /// Render the image (rayon over rows); `progress` is called once per finished row.
     pub fn render(&self, progress: &(dyn Fn() + Sync)) -> Image {
+        self.render_with_corners(None, progress)
+    }
+
+    /// [`Scene::render`] taking the primary hits and the lights' geometry at the pixel
+    /// corners from `corners` (made by [`Scene::corners`] from a scene that differs from this
+    /// one at most in its materials' reflection models and tables): the same image, the same
+    /// ray counts, without intersecting or building the geometry again at those corners. Only
+    /// the adaptive mode (whose samples are at the corners) reads it.
+    pub fn render_with_corners(
+        &self,
+        corners: Option<&Corners>,
+        progress: &(dyn Fn() + Sync),
+    ) -> Image {
         let (w, h) = (self.camera.width, self.camera.height);
         let total: [AtomicU64; 4] = Default::default();
         let footprint = (0.5 * self.camera.fov_deg.to_radians()).tan() * 2.0 / w.max(1) as f64;
@@ -1087,6 +1192,7 @@ impl Scene {
                     } else {
                         0.0
                     },
+                    corners: corners.filter(|k| k.fits(self)),
                 };
                 // Blocks of B × B pixels with corners on a lattice of spacing B (B = 1: Whitted's
                 // pixel corners), in bands of rows swept with two rows of corner samples shared
@@ -1227,13 +1333,75 @@ const SHADOWED: u64 = 1 << 63;
 
 /// The adaptive mode's settings as its recursion reads them.
 #[derive(Clone, Copy, Debug)]
-struct Subdivision {
+struct Subdivision<'a> {
     threshold: f64,
     max_level: u32,
     /// Angle subtended by one pixel (tan); the small-object test scales it by the sample spacing.
     footprint: f64,
     /// Finest-lattice points per pixel (2^max_level) when samples are jittered, else 0.
     jitter_cells: f64,
+    /// The corners' hits and lights, when computed beforehand.
+    corners: Option<&'a Corners>,
+}
+
+/// A ray's nearest hit: object index, t, outward normal.
+type Hit = (usize, f64, DVec3);
+
+/// What a light contributes at a surface point before any material ([`Scene::light_at`]).
+#[derive(Clone, Copy, Debug)]
+pub enum LightAt {
+    /// Light or eye below the surface: no shadow ray.
+    Behind,
+    /// The shadow ray is blocked.
+    Shadowed,
+    /// Lit: the geometry (N, L, E), N·L as the Lambert term reads it, and the irradiance.
+    Lit {
+        /// The geometry the models read.
+        g: Geometry,
+        /// N·L (the vector dot product).
+        n_dot_l: f64,
+        /// Irradiance on a surface facing the light.
+        irr: DVec3,
+    },
+}
+
+/// One geometry pass of a scene, shared by renders that differ only in materials (the
+/// candidates of `brdfit choose`): at every integer pixel corner (x, y) ∈ [0, W] × [0, H]
+/// the primary ray's nearest hit and, where it hits, each light's [`LightAt`]. Every value
+/// is computed by the code a render runs, so a render reading it gives the same image.
+#[derive(Clone, Debug)]
+pub struct Corners {
+    /// The camera it was made with (a render with another camera ignores it).
+    camera: Camera,
+    /// Number of lights it was made with.
+    per_point: usize,
+    /// Nearest hit per corner, x fastest ((W + 1) × (H + 1)).
+    hits: Vec<Option<Hit>>,
+    /// Each light's contribution per corner (`per_point` per corner; `Behind` where the
+    /// ray misses).
+    lights: Vec<LightAt>,
+}
+
+impl Corners {
+    /// The index of corner (x, y), when it is an integer corner of the table.
+    #[inline]
+    fn index(&self, x: f64, y: f64) -> Option<usize> {
+        let (w, h) = (
+            self.camera.width as usize + 1,
+            self.camera.height as usize + 1,
+        );
+        let (i, j) = (x as usize, y as usize);
+        (x >= 0.0 && y >= 0.0 && i as f64 == x && j as f64 == y && i < w && j < h)
+            .then_some(j * w + i)
+    }
+
+    /// True when made for `scene`'s camera and number of lights.
+    fn fits(&self, scene: &Scene) -> bool {
+        let (a, b) = (&self.camera, &scene.camera);
+        self.per_point == scene.lights.len()
+            && (a.eye, a.target, a.up, a.fov_deg, a.width, a.height)
+                == (b.eye, b.target, b.up, b.fov_deg, b.width, b.height)
+    }
 }
 
 /// Whitted's subdivision test on the corner samples of a square: display values differing by
