@@ -419,3 +419,226 @@ fn output_with_an_extension_not_written_is_refused() {
         "{wrote}"
     );
 }
+
+/// `fit --fix` outside the fitter's box (c1 ≤ 1e8, Phong 1975's exponent as brdfit bounds
+/// it) is refused at the flag with the box and the fix, and no JSON is written; before, the
+/// fit ran and wrote a JSON that reading then refused. The fix followed writes a JSON that
+/// reads back (`export`). With `--model all` the models that have c1 are checked too.
+#[test]
+fn fix_outside_the_fit_box_is_refused_at_the_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("p.json");
+    let j = json.to_str().unwrap();
+    let data = "data/blinn-mgo.csv";
+    let err = fails(
+        &[
+            "fit", data, "--model", "phong", "--fix", "c1=1e9", "--json", j,
+        ],
+        &[
+            "--fix c1=1000000000",
+            "0 < c1 ≤ 1e8",
+            "fix: give --fix c1=VALUE with",
+        ],
+    );
+    assert!(!json.exists(), "{err}");
+    fails(
+        &[
+            "fit", data, "--model", "all", "--fix", "c1=1e9", "--json", j,
+        ],
+        &["0 < c1 ≤ 1e8"],
+    );
+    assert!(!json.exists());
+    // n's box is 1 < n ≤ 1e7: n = 1 (F ≡ 0) is refused as well.
+    fails(
+        &["fit", data, "--fix", "n=1", "--json", j],
+        &["--fix n=1 ", "1 < n ≤ 1e7"],
+    );
+    ok(&[
+        "fit", data, "--model", "phong", "--fix", "c1=1e8", "--json", j,
+    ]);
+    ok(&["export", j, "--to", "mitsuba"]);
+}
+
+/// `render fig7 -o x.jpg` made a folder named x.jpg; fig7 writes a folder, so a name with an
+/// extension (not an existing folder) or an existing file is refused with the fix and nothing
+/// is written; the fix followed writes the contact sheet in the folder it names.
+#[test]
+fn fig7_output_with_an_extension_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let jpg = d.join("x.jpg");
+    let err = fails(
+        &["render", "fig7", "--res", "8", "-o", jpg.to_str().unwrap()],
+        &[
+            "render fig7 writes a folder",
+            "not a .jpg file",
+            "fix: give a folder name",
+        ],
+    );
+    assert!(!jpg.exists(), "{err}");
+    let fixed = word_after(&err, "e.g. -o ");
+    assert_eq!(Path::new(fixed), d.join("x").as_path());
+    let wrote = ok(&["render", "fig7", "--res", "8", "-o", fixed]);
+    let sheet = d.join("x").join("fig7.png");
+    assert!(
+        wrote.contains(&format!("wrote {}", sheet.display())),
+        "{wrote}"
+    );
+    assert!(sheet.is_file());
+    // An existing file is no folder.
+    let file = write(d, "taken", b"not a folder");
+    fails(
+        &["render", "fig7", "--res", "8", "-o", file.to_str().unwrap()],
+        &["is a file", "fix: give a folder"],
+    );
+    assert_eq!(std::fs::read(&file).unwrap(), b"not a folder");
+    // An existing folder with a dot in its name is a folder.
+    let dotted = d.join("run.v2");
+    std::fs::create_dir(&dotted).unwrap();
+    ok(&[
+        "render",
+        "fig7",
+        "--res",
+        "8",
+        "-o",
+        dotted.to_str().unwrap(),
+    ]);
+    assert!(dotted.join("fig7.png").is_file());
+}
+
+/// Every scene error names FILE:LINE and the key, not only those in `params`: the camera,
+/// lights, objects, antialias and material keys, a value of the wrong type, a missing key (the
+/// line of the table that lacks it). The lines are counted by hand in [`scene`]'s text.
+#[test]
+fn every_scene_error_names_its_line_and_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("out.png");
+    let base = scene("phong", "{ c1 = 10, ps = 0.5, pd = 0.5 }");
+    let cases: [(&str, &str, usize, &str); 13] = [
+        ("fov = 40.0", "fov = 240.0", 4, "`camera.fov` = 240"),
+        (
+            "fov = 40.0",
+            "fov = \"x\"",
+            4,
+            "`fov = \"x\"`: invalid type",
+        ),
+        ("width = 8", "width = 0", 5, "`camera.width` = 0"),
+        (
+            "target = [0.0, 0.0, 0.0]",
+            "target = [0.0, 1.0, 4.0]",
+            3,
+            "`camera.target`",
+        ),
+        (
+            "intensity = 90.0",
+            "intensity = -1.0",
+            11,
+            "light 1 (point): `intensity`",
+        ),
+        (
+            "position = [3.0, 6.0, 5.0]",
+            "size = 1.0",
+            10,
+            "unknown field `size`",
+        ),
+        (
+            "position = [3.0, 6.0, 5.0]\n",
+            "",
+            8,
+            "light 1 (point) needs `position`",
+        ),
+        (
+            "model = \"phong\"",
+            "model = \"phong\"\nks = 2.0",
+            15,
+            "`materials.m.ks` = 2",
+        ),
+        (
+            "model = \"phong\"",
+            "model = \"fong\"",
+            14,
+            "unknown model 'fong'",
+        ),
+        (
+            "kind = \"sphere\"",
+            "kind = \"cube\"",
+            18,
+            "object 1 (cube): unknown kind",
+        ),
+        (
+            "radius = 1.0",
+            "radius = -1.0",
+            20,
+            "object 1 (sphere): `radius` = -1",
+        ),
+        (
+            "material = \"m\"",
+            "material = \"q\"",
+            21,
+            "uses material 'q'",
+        ),
+        (
+            "material = \"m\"\n",
+            "material = \"m\"\n\n[antialias]\nmode = \"fuzzy\"\n",
+            24,
+            "`antialias.mode` 'fuzzy'",
+        ),
+    ];
+    for (k, (from, to, line, key)) in cases.iter().enumerate() {
+        assert_eq!(base.matches(from).count(), 1, "{from}");
+        let text = base.replace(from, to);
+        let path = write(d, &format!("s{k}.toml"), text.as_bytes());
+        let at = format!("{}:{line}: ", path.display());
+        let err = fails(
+            &[
+                "render",
+                path.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+            ],
+            &[at.as_str(), key, "fix: "],
+        );
+        assert!(!out.exists(), "{err}");
+    }
+}
+
+/// A `params` material whose directional albedo is above 1 by more than fit's margin
+/// (physical.rs's ALBEDO_MARGIN, 1e-3) renders with a warning naming the file, line, material,
+/// albedo, θi and the fix; at or under it, no warning. Lambert's directional albedo is pd at
+/// every θi (∫ pd/π cos θo dω = pd), so pd = 1.5 warns with 1.5 and pd = 1.0005 does not.
+#[test]
+fn scene_albedo_above_one_warns() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("out.png");
+    let o = out.to_str().unwrap();
+    let bright = write(
+        d,
+        "bright.toml",
+        scene("lambert", "{ pd = 1.5 }").as_bytes(),
+    );
+    let err = ok(&["render", bright.to_str().unwrap(), "-o", o]);
+    let at = format!("warning: {}:15: material m: ", bright.display());
+    for want in [
+        at.as_str(),
+        "directional albedo of 1.5 at θi = ",
+        "reflects more light than it receives",
+        "fix: lower ps or pd",
+    ] {
+        assert!(err.contains(want), "lacks '{want}':\n{err}");
+    }
+    assert!(out.exists());
+    // --quiet keeps warnings.
+    let err = ok(&["--quiet", "render", bright.to_str().unwrap(), "-o", o]);
+    assert!(err.contains(&at), "{err}");
+    for pd in ["1.0005", "0.5"] {
+        let p = write(
+            d,
+            "near.toml",
+            scene("lambert", &format!("{{ pd = {pd} }}")).as_bytes(),
+        );
+        let err = ok(&["render", p.to_str().unwrap(), "-o", o]);
+        assert!(!err.contains("warning"), "pd = {pd}: {err}");
+    }
+}

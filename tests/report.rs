@@ -145,6 +145,17 @@ fn report_links_are_valid_and_output_is_reproducible() {
             .unwrap()
             .contains("\"seconds\"")
     );
+    // timings.json: per data set, `fits` is the stage's wall time like every other entry, and
+    // each model of the catalogue has its own clock under `fit_seconds_per_model` (they ran in
+    // parallel; `fits` used to be their sum).
+    let t: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(a.path().join("timings.json")).unwrap()).unwrap();
+    for set in ["blinn-mgo", "cayman"] {
+        assert!(t[set]["fits"].as_f64().is_some_and(|s| s >= 0.0), "{t}");
+        let per = t[set]["fit_seconds_per_model"].as_object().unwrap();
+        assert_eq!(per.len(), brdfit::model::catalogue().len(), "{per:?}");
+        assert!(per.values().all(|s| s.as_f64().is_some_and(|s| s >= 0.0)));
+    }
 }
 
 /// The files that show measured run times and so differ between runs: timings.json, and each

@@ -1,7 +1,7 @@
 //! `brdfit fit`: parse, call the library, print the table and write the JSON and summary.
 
 use super::*;
-use anyhow::{Result, anyhow};
+use anyhow::{Result, anyhow, bail};
 use brdfit::model::{Distribution, ModelKind};
 use std::path::Path;
 
@@ -220,6 +220,22 @@ pub(crate) fn fit_one(
     };
     let (method, loss, robust) = (a.method, a.loss, a.robust);
     let fix = parse_assignments("--fix", &a.fix)?;
+    // A held value outside the fitter's box would be written to a fit JSON that reading
+    // refuses: the same bounds as the fit-file loader (ParamSpec::in_fit_box).
+    for (k, v) in &fix {
+        for (kind, dist) in &kinds {
+            if let Some(spec) = kind.params(*dist).iter().find(|s| s.name == k)
+                && !spec.in_fit_box(*v)
+            {
+                bail!(
+                    "on the command line: --fix {k}={v} is outside the range a fit can return ({}: {})\n  fix: give --fix {k}=VALUE with {}",
+                    kind.label(*dist),
+                    spec.fit_box_text(),
+                    spec.fit_box_text()
+                );
+            }
+        }
+    }
     let start = parse_assignments("--start", &a.start)?;
     let mut opts = Vec::new();
     for (kind, dist) in &kinds {

@@ -157,11 +157,15 @@ pub(crate) fn quiet() -> bool {
     QUIET.load(std::sync::atomic::Ordering::Relaxed)
 }
 
-/// Read a scene file and say on stderr (unless --quiet) what was chosen for the user in it.
+/// Read a scene file and say on stderr (unless --quiet) what was chosen for the user in it,
+/// and its warnings (always).
 pub(crate) fn load_scene(path: &std::path::Path) -> anyhow::Result<brdfit::render::Scene> {
     let (scene, notes) = brdfit::render::scene::load_scene_noted(path)?;
-    if !quiet() {
-        for n in notes {
+    for n in notes {
+        // Warnings (already FILE:LINE) even with --quiet, like the loaders' warnings.
+        if n.starts_with("warning: ") {
+            eprintln!("{n}");
+        } else if !quiet() {
             eprintln!("note: {}: {n}", path.display());
         }
     }

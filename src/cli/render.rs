@@ -73,6 +73,30 @@ pub(crate) fn ts_model_from(
     }
 }
 
+/// fig7's `-o` names a folder (its eight images as PNG + EXR and the contact sheet fig7.png):
+/// a name with an extension (`-o x.jpg`, which made a folder named x.jpg) is refused with the
+/// fix unless it is an existing folder, and so is an existing file.
+fn fig7_folder(output: &Path) -> Result<()> {
+    let name = output.display();
+    if output.exists() && !output.is_dir() {
+        bail!(
+            "-o {name}: is a file, and render fig7 writes a folder (eight images as PNG and EXR, and the contact sheet fig7.png)\n  fix: give a folder, e.g. -o {}",
+            output.with_extension("").display()
+        );
+    }
+    if let Some(e) = output.extension()
+        && !output.is_dir()
+    {
+        bail!(
+            "-o {name}: render fig7 writes a folder (eight images as PNG and EXR, and the contact sheet fig7.png), not a .{} file\n  fix: give a folder name without an extension, e.g. -o {} (it writes {})",
+            e.to_string_lossy(),
+            output.with_extension("").display(),
+            output.with_extension("").join("fig7.png").display()
+        );
+    }
+    Ok(())
+}
+
 pub(crate) fn run_render(
     scene: &str,
     output: &Path,
@@ -87,6 +111,7 @@ pub(crate) fn run_render(
         bail!("--res {res} is out of range\n  fix: give a resolution between 1 and 16384");
     }
     if scene == "fig7" {
+        fig7_folder(output)?;
         render::check_image_size(res, res, allow_large).map_err(|e| anyhow!("--res {res}: {e}"))?;
         let al = ts_model_from(al, Model::blinn_aluminium(), pick, channel)?;
         let mgo = ts_model_from(mgo, Model::blinn_mgo(), pick, channel)?;

@@ -225,6 +225,76 @@ fn line_of(text: &str, at: usize) -> usize {
     text.get(..at).unwrap_or(text).matches('\n').count() + 1
 }
 
+/// One step of a key's path in the scene file: a key of a table, or an element of an array.
+#[derive(Clone, Copy)]
+enum Seg<'a> {
+    K(&'a str),
+    I(usize),
+}
+use Seg::{I, K};
+
+/// The lines of every key of a scene file (toml's spans, [`toml::de::DeTable`]), so that
+/// every error names its FILE:LINE as well as its key.
+struct Lines<'a> {
+    text: &'a str,
+    root: Option<toml::Spanned<toml::de::DeTable<'a>>>,
+}
+
+impl<'a> Lines<'a> {
+    fn new(text: &'a str) -> Self {
+        Lines {
+            text,
+            root: toml::de::DeTable::parse(text).ok(),
+        }
+    }
+
+    /// The 1-based line of the key at `path` (an array element: its `[[…]]` header), or of
+    /// the deepest table on the path that exists (a missing key: the table that lacks it).
+    fn line(&self, path: &[Seg]) -> usize {
+        use toml::de::DeValue;
+        let Some(root) = &self.root else { return 1 };
+        let mut at = 0;
+        let mut table = Some(root.get_ref());
+        let mut array = None;
+        for seg in path {
+            let next = match seg {
+                K(k) => table.and_then(|t| {
+                    t.iter()
+                        .find(|(key, _)| key.get_ref().as_ref() == *k)
+                        .map(|(key, v)| (key.span().start, v))
+                }),
+                I(i) => {
+                    array.and_then(|a: &toml::de::DeArray| a.get(*i).map(|v| (v.span().start, v)))
+                }
+            };
+            let Some((start, v)) = next else { break };
+            at = start;
+            (table, array) = match v.get_ref() {
+                DeValue::Table(t) => (Some(t), None),
+                DeValue::Array(a) => (None, Some(a)),
+                _ => (None, None),
+            };
+        }
+        line_of(self.text, at)
+    }
+
+    /// An error at the line of `path`: [`AtLine`] (kept as it is when it already has one).
+    fn at(&self, path: &[Seg]) -> impl FnOnce(anyhow::Error) -> anyhow::Error + use<> {
+        let line = self.line(path);
+        move |e| {
+            if e.downcast_ref::<AtLine>().is_some() {
+                e
+            } else {
+                AtLine {
+                    line,
+                    msg: format!("{e:#}"),
+                }
+                .into()
+            }
+        }
+    }
+}
+
 /// A bound in a message: 1e6 rather than 1000000.
 fn show(x: f64) -> String {
     if x.abs() >= 1e4 {
@@ -334,7 +404,8 @@ pub fn parse_scene(text: &str, dir: &Path) -> Result<Scene> {
 }
 
 /// [`parse_scene`], adding to `notes` what was chosen for the user (which fit of a fit file a
-/// material uses), one sentence each, for the caller to show.
+/// material uses), one sentence each, for the caller to show, and the warnings (a `params`
+/// material with a directional albedo above 1), each `warning: line LINE: …`.
 pub fn parse_scene_noted(text: &str, dir: &Path, notes: &mut Vec<String>) -> Result<Scene> {
     let f: SceneFile = toml::from_str(text).map_err(|e| {
         let fix = match (e.message(), e.span()) {
@@ -344,26 +415,40 @@ pub fn parse_scene_noted(text: &str, dir: &Path, notes: &mut Vec<String>) -> Res
             ),
             _ => "correct the key or value named above (the scene format is in README.md, \"Scene files\")".into(),
         };
-        anyhow!("{}\n  fix: {fix}", e.to_string().trim_end())
+        match e.span() {
+            // The line and its text (which names the key), then toml's message.
+            Some(span) => {
+                let line = line_of(text, span.start);
+                let shown = text.lines().nth(line - 1).unwrap_or("").trim();
+                AtLine {
+                    line,
+                    msg: format!("`{shown}`: {}\n  fix: {fix}", e.message().trim_end()),
+                }
+                .into()
+            }
+            None => anyhow!("{}\n  fix: {fix}", e.to_string().trim_end()),
+        }
     })?;
+    let lines = Lines::new(text);
     let cam = &f.camera;
-    count("`camera.width`", cam.width, 1, 16384)?;
-    count("`camera.height`", cam.height, 1, 16384)?;
+    let at_cam = |k: &str| lines.at(&[K("camera"), K(k)]);
+    count("`camera.width`", cam.width, 1, 16384).map_err(at_cam("width"))?;
+    count("`camera.height`", cam.height, 1, 16384).map_err(at_cam("height"))?;
     if !(cam.fov > 0.0 && cam.fov < 180.0) {
-        bail!(
+        return Err(at_cam("fov")(anyhow!(
             "`camera.fov` = {} is out of range\n  fix: give a horizontal field of view in degrees, greater than 0 and less than 180",
             cam.fov
-        );
+        )));
     }
-    let eye = position("`camera.eye`", cam.eye)?;
-    let target = position("`camera.target`", cam.target)?;
-    let up = direction("`camera.up`", cam.up.unwrap_or([0.0, 1.0, 0.0]))?;
+    let eye = position("`camera.eye`", cam.eye).map_err(at_cam("eye"))?;
+    let target = position("`camera.target`", cam.target).map_err(at_cam("target"))?;
+    let up = direction("`camera.up`", cam.up.unwrap_or([0.0, 1.0, 0.0])).map_err(at_cam("up"))?;
     if (target - eye).length() < 1e-9 * eye.abs().max_element().max(1.0)
         || (target - eye).normalize().cross(up).length() < 1e-9
     {
-        bail!(
-            "the camera looks along its up vector or at its own position\n  fix: give a target away from the eye and an up vector not parallel to the view"
-        );
+        return Err(at_cam("target")(anyhow!(
+            "`camera.target`: the camera looks along its up vector or at its own position\n  fix: give a target away from the eye and an up vector not parallel to the view"
+        )));
     }
     let camera = Camera {
         eye,
@@ -377,10 +462,10 @@ pub fn parse_scene_noted(text: &str, dir: &Path, notes: &mut Vec<String>) -> Res
     let mut specs: Vec<&(String, MaterialSpec)> = f.materials.iter().collect();
     if let Some(t) = &f.test_object {
         let k = specs.iter().position(|(n, _)| n == t).ok_or_else(|| {
-            anyhow!(
+            lines.at(&[K("test_object")])(anyhow!(
                 "`test_object` = \"{t}\" names no material\n  fix: use one of: {}",
                 names_of(&f.materials)
-            )
+            ))
         })?;
         let first = specs.remove(k);
         specs.insert(0, first);
@@ -388,14 +473,15 @@ pub fn parse_scene_noted(text: &str, dir: &Path, notes: &mut Vec<String>) -> Res
     let mut names = Vec::new();
     let mut materials = Vec::new();
     for (name, m) in specs {
-        materials.push(material(name, m, dir, text, notes)?);
+        materials.push(material(name, m, dir, &lines, notes)?);
         names.push(name.clone());
     }
     let mut objects = Vec::new();
     for (k, o) in f.objects.iter().enumerate() {
         let owner = format!("object {} ({})", k + 1, o.kind);
+        let at = |key: &str| lines.at(&[K("objects"), I(k), K(key)]);
         let mi = names.iter().position(|n| *n == o.material).ok_or_else(|| {
-            anyhow!("{owner} uses material '{}', which is not defined\n  fix: add [materials.{}] or use one of: {}", o.material, o.material, names.join(", "))
+            at("material")(anyhow!("{owner} uses material '{}', which is not defined\n  fix: add [materials.{}] or use one of: {}", o.material, o.material, names.join(", ")))
         })?;
         let shape = match o.kind.as_str() {
             "sphere" => {
@@ -408,17 +494,18 @@ pub fn parse_scene_noted(text: &str, dir: &Path, notes: &mut Vec<String>) -> Res
                         ("path", o.path.is_some()),
                     ],
                     "a sphere takes center and radius",
-                )?;
+                )
+                .map_err(at(""))?;
                 Shape::Sphere {
-                    center: position(
-                        &format!("{owner}: `center`"),
-                        need(o.center, &owner, "center")?,
-                    )?,
+                    center: need(o.center, &owner, "center")
+                        .and_then(|c| position(&format!("{owner}: `center`"), c))
+                        .map_err(at("center"))?,
                     radius: positive(
                         &format!("{owner}: `radius`"),
                         o.radius.unwrap_or(1.0),
                         MAX_SIZE,
-                    )?,
+                    )
+                    .map_err(at("radius"))?,
                 }
             }
             "plane" => {
@@ -430,22 +517,22 @@ pub fn parse_scene_noted(text: &str, dir: &Path, notes: &mut Vec<String>) -> Res
                         ("path", o.path.is_some()),
                     ],
                     "a plane takes point, normal and an optional half-size size",
-                )?;
-                let normal = direction(
-                    &format!("{owner}: `normal`"),
-                    need(o.normal, &owner, "normal")?,
-                )?;
+                )
+                .map_err(at(""))?;
+                let normal = need(o.normal, &owner, "normal")
+                    .and_then(|n| direction(&format!("{owner}: `normal`"), n))
+                    .map_err(at("normal"))?;
                 let (u, v) = plane_axes(normal);
                 Shape::Plane {
-                    point: position(
-                        &format!("{owner}: `point`"),
-                        need(o.point, &owner, "point")?,
-                    )?,
+                    point: need(o.point, &owner, "point")
+                        .and_then(|p| position(&format!("{owner}: `point`"), p))
+                        .map_err(at("point"))?,
                     normal,
                     half: o
                         .size
                         .map(|s| positive(&format!("{owner}: `size`"), s, MAX_SIZE))
-                        .transpose()?,
+                        .transpose()
+                        .map_err(at("size"))?,
                     u,
                     v,
                 }
@@ -461,26 +548,33 @@ pub fn parse_scene_noted(text: &str, dir: &Path, notes: &mut Vec<String>) -> Res
                         ("size", o.size.is_some()),
                     ],
                     "a mesh takes path",
-                )?;
-                let p = dir.join(need(o.path.as_deref(), &owner, "path")?);
-                let mesh = read_obj(&p)?;
+                )
+                .map_err(at(""))?;
+                let p = dir.join(need(o.path.as_deref(), &owner, "path").map_err(at("path"))?);
+                let mesh =
+                    read_obj(&p).map_err(|e| at("path")(e.context(format!("{owner}: `path`"))))?;
                 if mesh.tris.is_empty() {
-                    bail!(
+                    return Err(at("path")(anyhow!(
                         "{owner}: {} holds no triangle\n  fix: give an OBJ file with `v` and `f` lines",
                         p.display()
-                    );
+                    )));
                 }
                 Shape::Mesh(mesh)
             }
-            other => bail!("{owner}: unknown kind '{other}'\n  fix: use sphere, plane or mesh"),
+            other => {
+                return Err(at("kind")(anyhow!(
+                    "{owner}: unknown kind '{other}'\n  fix: use sphere, plane or mesh"
+                )));
+            }
         };
         objects.push(Object::new(shape, mi));
     }
     let mut lights = Vec::new();
     for (k, l) in f.lights.iter().enumerate() {
         let owner = format!("light {} ({})", k + 1, l.kind);
+        let at = |key: &str| lines.at(&[K("lights"), I(k), K(key)]);
         let color = match &l.color {
-            Some(c) => color(&format!("{owner}: `color`"), c, MAX_RADIANCE)?,
+            Some(c) => color(&format!("{owner}: `color`"), c, MAX_RADIANCE).map_err(at("color"))?,
             None => DVec3::ONE,
         };
         let intensity = closed(
@@ -488,14 +582,15 @@ pub fn parse_scene_noted(text: &str, dir: &Path, notes: &mut Vec<String>) -> Res
             l.intensity,
             0.0,
             MAX_INTENSITY,
-        )?;
+        )
+        .map_err(at("intensity"))?;
         let power = color * intensity;
         if power.max_element() > MAX_INTENSITY {
-            bail!(
+            return Err(at("intensity")(anyhow!(
                 "{owner}: color × intensity = {:?} is above {}\n  fix: lower the intensity or the colour",
                 power.to_array(),
                 show(MAX_INTENSITY)
-            );
+            )));
         }
         lights.push(match l.kind.as_str() {
             "point" => {
@@ -503,12 +598,12 @@ pub fn parse_scene_noted(text: &str, dir: &Path, notes: &mut Vec<String>) -> Res
                     &owner,
                     &[("direction", l.direction.is_some())],
                     "a point light takes position",
-                )?;
+                )
+                .map_err(at("direction"))?;
                 Light::Point {
-                    position: position(
-                        &format!("{owner}: `position`"),
-                        need(l.position, &owner, "position")?,
-                    )?,
+                    position: need(l.position, &owner, "position")
+                        .and_then(|p| position(&format!("{owner}: `position`"), p))
+                        .map_err(at("position"))?,
                     intensity: power,
                 }
             }
@@ -517,18 +612,23 @@ pub fn parse_scene_noted(text: &str, dir: &Path, notes: &mut Vec<String>) -> Res
                     &owner,
                     &[("position", l.position.is_some())],
                     "a directional light takes direction, toward the light",
-                )?;
+                )
+                .map_err(at("position"))?;
                 Light::Directional {
-                    direction: direction(
-                        &format!("{owner}: `direction`"),
-                        need(l.direction, &owner, "direction")?,
-                    )?,
+                    direction: need(l.direction, &owner, "direction")
+                        .and_then(|d| direction(&format!("{owner}: `direction`"), d))
+                        .map_err(at("direction"))?,
                     irradiance: power,
                 }
             }
-            other => bail!("{owner}: unknown kind '{other}'\n  fix: use point or directional"),
+            other => {
+                return Err(at("kind")(anyhow!(
+                    "{owner}: unknown kind '{other}'\n  fix: use point or directional"
+                )));
+            }
         });
     }
+    let at_aa = |k: &str| lines.at(&[K("antialias"), K(k)]);
     let antialias = match &f.antialias {
         None => AntiAlias::Adaptive {
             threshold: 0.02,
@@ -546,17 +646,21 @@ pub fn parse_scene_noted(text: &str, dir: &Path, notes: &mut Vec<String>) -> Res
             let owner = format!("antialias mode \"{}\"", a.mode);
             match a.mode.as_str() {
                 "none" => {
-                    not_for(&owner, &adaptive_keys, "mode none takes no other key")?;
+                    not_for(&owner, &adaptive_keys, "mode none takes no other key")
+                        .map_err(at_aa("mode"))?;
                     not_for(
                         &owner,
                         &[("samples", a.samples.is_some())],
                         "mode none takes no other key",
-                    )?;
+                    )
+                    .map_err(at_aa("samples"))?;
                     AntiAlias::None
                 }
                 "uniform" | "stratified" => {
-                    not_for(&owner, &adaptive_keys, "this mode takes samples")?;
-                    let n = count("`antialias.samples`", a.samples.unwrap_or(4), 1, 64)?;
+                    not_for(&owner, &adaptive_keys, "this mode takes samples")
+                        .map_err(at_aa("mode"))?;
+                    let n = count("`antialias.samples`", a.samples.unwrap_or(4), 1, 64)
+                        .map_err(at_aa("samples"))?;
                     if a.mode == "uniform" {
                         AntiAlias::Uniform(n)
                     } else {
@@ -568,27 +672,34 @@ pub fn parse_scene_noted(text: &str, dir: &Path, notes: &mut Vec<String>) -> Res
                         &owner,
                         &[("samples", a.samples.is_some())],
                         "adaptive takes threshold, max_level, block and jitter",
-                    )?;
+                    )
+                    .map_err(at_aa("samples"))?;
                     AntiAlias::Adaptive {
                         threshold: closed(
                             "`antialias.threshold`",
                             a.threshold.unwrap_or(0.02),
                             0.0,
                             100.0,
-                        )?,
-                        max_level: count("`antialias.max_level`", a.max_level.unwrap_or(3), 0, 8)?,
+                        )
+                        .map_err(at_aa("threshold"))?,
+                        max_level: count("`antialias.max_level`", a.max_level.unwrap_or(3), 0, 8)
+                            .map_err(at_aa("max_level"))?,
                         block: match a.block.unwrap_or(1) {
                             b @ (1 | 2 | 4) => b,
-                            b => bail!(
-                                "`antialias.block` = {b} is not supported\n  fix: use 1, 2 or 4"
-                            ),
+                            b => {
+                                return Err(at_aa("block")(anyhow!(
+                                    "`antialias.block` = {b} is not supported\n  fix: use 1, 2 or 4"
+                                )));
+                            }
                         },
                         jitter: a.jitter.unwrap_or(false),
                     }
                 }
-                other => bail!(
-                    "antialias mode '{other}' is unknown\n  fix: use adaptive, uniform, stratified or none"
-                ),
+                other => {
+                    return Err(at_aa("mode")(anyhow!(
+                        "`antialias.mode` '{other}' is unknown\n  fix: use adaptive, uniform, stratified or none"
+                    )));
+                }
             }
         }
     };
@@ -598,15 +709,19 @@ pub fn parse_scene_noted(text: &str, dir: &Path, notes: &mut Vec<String>) -> Res
         materials,
         lights,
         ambient: match &f.ambient {
-            Some(c) => color("`ambient`", c, MAX_RADIANCE)?,
+            Some(c) => color("`ambient`", c, MAX_RADIANCE).map_err(lines.at(&[K("ambient")]))?,
             None => DVec3::ZERO,
         },
         background: match &f.background {
-            Some(c) => color("`background`", c, MAX_RADIANCE)?,
+            Some(c) => {
+                color("`background`", c, MAX_RADIANCE).map_err(lines.at(&[K("background")]))?
+            }
             None => DVec3::ZERO,
         },
-        max_depth: count("`max_depth`", f.max_depth.unwrap_or(4), 1, 64)?,
-        min_weight: closed("`min_weight`", f.min_weight.unwrap_or(1e-3), 0.0, 1.0)?,
+        max_depth: count("`max_depth`", f.max_depth.unwrap_or(4), 1, 64)
+            .map_err(lines.at(&[K("max_depth")]))?,
+        min_weight: closed("`min_weight`", f.min_weight.unwrap_or(1e-3), 0.0, 1.0)
+            .map_err(lines.at(&[K("min_weight")]))?,
         antialias,
     };
     scene.check_inputs().map_err(|e| anyhow!("{e}"))?;
@@ -629,6 +744,7 @@ fn model_params(
     dist: Distribution,
     params: &toml::Spanned<BTreeMap<String, toml::Spanned<f64>>>,
     text: &str,
+    notes: &mut Vec<String>,
 ) -> Result<Model> {
     let at = |span: std::ops::Range<usize>, what: String, fix: String| AtLine {
         line: line_of(text, span.start),
@@ -690,6 +806,21 @@ fn model_params(
         )
         .into());
     }
+    // fit's physical rule (crate::fit::physical, rule 2): above 1 by more than the quadrature's
+    // margin reflects more light than it receives; rendered as given, with a warning.
+    if a > 1.0 + crate::fit::physical::ALBEDO_MARGIN {
+        notes.push(format!(
+            "warning: {}",
+            at(
+                params.span(),
+                format!(
+                    "`params` give a directional albedo of {} at θi = {t}°: the material reflects more light than it receives (rendered as given)",
+                    crate::model::readable(a)
+                ),
+                "lower ps or pd until the albedo is at most 1, as a physical material's is".into(),
+            )
+        ));
+    }
     Ok(model)
 }
 
@@ -704,24 +835,29 @@ fn material(
     name: &str,
     m: &MaterialSpec,
     dir: &Path,
-    text: &str,
+    lines: &Lines,
     notes: &mut Vec<String>,
 ) -> Result<Material> {
     let key = |k: &str| format!("`materials.{name}.{k}`");
+    // Each error at the line of its key (a key not given: the material's own line).
+    let at = |k: &str| lines.at(&[K("materials"), K(name), K(k)]);
     // A colour fit: the lobe with ps = pd = 1, its channels' pd and ps as colours.
     let mut fit_colour = (DVec3::ONE, DVec3::ONE);
     let model = match (&m.fit, &m.model) {
-        (Some(_), Some(_)) => bail!(
-            "material {name} has both `model` and `fit`\n  fix: keep one: the fit file gives the model and its parameters"
-        ),
+        (Some(_), Some(_)) => {
+            return Err(at("fit")(anyhow!(
+                "material {name} has both `model` and `fit`\n  fix: keep one: the fit file gives the model and its parameters"
+            )));
+        }
         (Some(fit), None) => {
             not_for(
                 &format!("material {name}"),
                 &[("params", m.params.is_some())],
                 "the fit file gives the parameters (`distribution` and `fit_model` pick one fit of several)",
-            )?;
+            )
+            .map_err(at("params"))?;
             let p = dir.join(fit);
-            let (model, diffuse, specular) = fit_material(name, m, &p, notes)?;
+            let (model, diffuse, specular) = fit_material(name, m, &p, notes).map_err(at("fit"))?;
             fit_colour = (diffuse, specular);
             model
         }
@@ -734,45 +870,51 @@ fn material(
                     ("fit_allow_unusable", m.fit_allow_unusable.is_some()),
                 ],
                 "it picks from a fit file, and this material gives `model`",
-            )?;
+            )
+            .map_err(at("model"))?;
             let kind = ModelKind::parse(kind).ok_or_else(|| {
-                anyhow!(
+                at("model")(anyhow!(
                     "material {name}: unknown model '{kind}'\n  fix: use one of {}",
                     ModelKind::names()
-                )
+                ))
             })?;
             let dist = match &m.distribution {
-                Some(d) if kind != ModelKind::TorranceSparrow => bail!(
-                    "material {name}: `distribution` = \"{d}\" applies to torrance-sparrow only\n  fix: remove it"
-                ),
-                Some(d) => distribution(name, d)?,
+                Some(d) if kind != ModelKind::TorranceSparrow => {
+                    return Err(at("distribution")(anyhow!(
+                        "material {name}: `distribution` = \"{d}\" applies to torrance-sparrow only\n  fix: remove it"
+                    )));
+                }
+                Some(d) => distribution(name, d).map_err(at("distribution"))?,
                 None => Distribution::D3,
             };
             let Some(params) = &m.params else {
-                bail!(
+                return Err(at("params")(anyhow!(
                     "material {name} needs `params`\n  fix: add params = {{ … }} with {}",
                     kind.param_names(dist).join(", ")
-                );
+                )));
             };
-            model_params(name, kind, dist, params, text)?
+            model_params(name, kind, dist, params, lines.text, notes)?
         }
-        (None, None) => bail!(
-            "material {name} has neither `model` nor `fit`\n  fix: add model = \"lambert\" and params = {{ pd = 0.5 }}, or fit = \"FILE.json\""
-        ),
+        (None, None) => {
+            return Err(at("model")(anyhow!(
+                "material {name} has neither `model` nor `fit`\n  fix: add model = \"lambert\" and params = {{ pd = 0.5 }}, or fit = \"FILE.json\""
+            )));
+        }
     };
     let roughness = match &m.roughness {
         None => None,
         Some(r) => {
             if (model.kind, model.dist) != (ModelKind::TorranceSparrow, Distribution::D3) {
-                bail!(
+                return Err(at("roughness")(anyhow!(
                     "material {name}: `roughness` modulates Blinn's D3 and applies to torrance-sparrow d3 only, this is {} {}\n  fix: remove it or use model = \"torrance-sparrow\"",
                     model.kind,
                     model.dist.name()
-                );
+                )));
             }
             Some(RoughnessTexture {
-                cmin: closed(&key("roughness.cmin"), r.cmin, 1e-3, 1.0)?,
-                frequency: closed(&key("roughness.frequency"), r.frequency, 0.0, MAX_FREQUENCY)?,
+                cmin: closed(&key("roughness.cmin"), r.cmin, 1e-3, 1.0).map_err(at("roughness"))?,
+                frequency: closed(&key("roughness.frequency"), r.frequency, 0.0, MAX_FREQUENCY)
+                    .map_err(at("roughness"))?,
             })
         }
     };
@@ -780,21 +922,22 @@ fn material(
         name: name.to_string(),
         model,
         color: match &m.color {
-            Some(c) => color(&key("color"), c, 1.0)?,
+            Some(c) => color(&key("color"), c, 1.0).map_err(at("color"))?,
             None => DVec3::ONE,
         } * fit_colour.0,
         specular: fit_colour.1,
         checker: match &m.checker {
             None => None,
             Some(c) => Some(Checker {
-                size: positive(&key("checker.size"), c.size, MAX_FREQUENCY)?,
-                color0: color(&key("checker.color0"), &c.color0, 1.0)?,
-                color1: color(&key("checker.color1"), &c.color1, 1.0)?,
+                size: positive(&key("checker.size"), c.size, MAX_FREQUENCY)
+                    .map_err(at("checker"))?,
+                color0: color(&key("checker.color0"), &c.color0, 1.0).map_err(at("checker"))?,
+                color1: color(&key("checker.color1"), &c.color1, 1.0).map_err(at("checker"))?,
             }),
         },
-        ks: closed(&key("ks"), m.ks.unwrap_or(0.0), 0.0, 1.0)?,
-        kt: closed(&key("kt"), m.kt.unwrap_or(0.0), 0.0, 1.0)?,
-        ior: closed(&key("ior"), m.ior.unwrap_or(1.5), 0.01, 100.0)?,
+        ks: closed(&key("ks"), m.ks.unwrap_or(0.0), 0.0, 1.0).map_err(at("ks"))?,
+        kt: closed(&key("kt"), m.kt.unwrap_or(0.0), 0.0, 1.0).map_err(at("kt"))?,
+        ior: closed(&key("ior"), m.ior.unwrap_or(1.5), 0.01, 100.0).map_err(at("ior"))?,
         roughness,
         measured: None,
     })
@@ -914,7 +1057,8 @@ pub fn load_scene(path: &Path) -> Result<Scene> {
     load_scene_noted(path).map(|(s, _)| s)
 }
 
-/// [`load_scene`] with the notes of [`parse_scene_noted`] (what was chosen for the user).
+/// [`load_scene`] with the notes of [`parse_scene_noted`] (what was chosen for the user);
+/// its warnings come as `warning: FILE:LINE: …`, ready to show.
 pub fn load_scene_noted(path: &Path) -> Result<(Scene, Vec<String>)> {
     let text = crate::input::read_to_string_limited(path, crate::input::Input::Scene)?;
     let dir = path.parent().unwrap_or(Path::new("."));
@@ -925,6 +1069,13 @@ pub fn load_scene_noted(path: &Path) -> Result<(Scene, Vec<String>)> {
             None => e.context(path.display().to_string()),
         }
     })?;
+    let notes = notes
+        .into_iter()
+        .map(|n| match n.strip_prefix("warning: line ") {
+            Some(rest) => format!("warning: {}:{rest}", path.display()),
+            None => n,
+        })
+        .collect();
     Ok((s, notes))
 }
 
