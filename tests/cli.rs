@@ -569,7 +569,11 @@ fn fit_command_end_to_end() {
     );
     expect_error(
         &["fit", "data/blinn-mgo.csv", "--fix", "c3=2"],
-        &["blinn-mgo.csv", "c3 = 2 is outside its bounds", "fix:"],
+        &[
+            "--fix c3=2 is outside the range a fit can return",
+            "0 < c3 ≤ 1",
+            "fix:",
+        ],
     );
     expect_usage_error(
         &["fit", "data/blinn-mgo.csv", "--method", "bfgs"],
