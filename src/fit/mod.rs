@@ -490,8 +490,10 @@ impl FitResult {
 
 /// Fit `opts.kind` to every channel of `ds` (or jointly with `opts.shared`).
 pub fn fit(ds: &Dataset, opts: &FitOptions) -> Result<Vec<FitResult>, FitError> {
-    // Each channel's geometry pass is timed with its fit.
-    fit_with(ds, opts, |c| timed_rows(ds, c, opts))
+    // Each channel's geometry pass is timed with its fit. On a thread of rayon's pool (called
+    // from outside it, the work is handed to the pool once): each parallel stage then wakes
+    // the other core only, instead of putting this thread to sleep and waking it again.
+    rayon::scope(|_| fit_with(ds, opts, |c| timed_rows(ds, c, opts)))
 }
 
 /// [`fit`] with each channel's rows (and their geometry seconds) from `timed`.
