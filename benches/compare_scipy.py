@@ -12,7 +12,8 @@ benches/scipy_models.py reports the median time of that geometry as `geometry_se
 peer that does not (../shared/peers/scipy_fit.py, given as --shared-peer) its geometry() is timed
 here, median of 5. brdfit reports `seconds` = `geometry_seconds` (the per-sample pass) +
 `solve_seconds` (set-up, global initialisation, local fits and polish: reaching the minimum) +
-`statistics_seconds` (checks at return, standard errors, correlations, 1 % ranges), each the
+`statistics_seconds` (checks at return, standard errors, correlations, 1 % ranges, the physical
+check's albedo quadrature), each the
 median of its own column. Two ratios are printed: solve against solve (brdfit's
 `solve_seconds`, the peer's seconds: the work both clocks cover), and everything against
 everything (brdfit's `seconds`, statistics included, against the peer's geometry + solve; the

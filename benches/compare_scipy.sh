@@ -12,7 +12,8 @@
 #
 #   solve s     brdfit: solve_seconds (set-up, global initialisation, local fits, polish);
 #               peer: its own clock (least_squares only)
-#   stats s     brdfit: statistics_seconds (checks, standard errors, ranges); peer: 0 (none)
+#   stats s     brdfit: statistics_seconds (checks, standard errors, ranges, the physical
+#               check's albedo quadrature); peer: 0 (none)
 #   geometry s  the parameter-free per-sample pass (the peer's, timed on its own)
 #   total s     the three together (brdfit: its `seconds`)
 #   own cost    ½ Σ r² as each program sums it

@@ -875,17 +875,10 @@ pub(super) fn global_init(
                     Slot::Free(k) => theta[k],
                 };
             }
-            // Each coefficient's value if held, and whether it is free.
-            let mut held = vec![0.0; k];
-            let mut free = vec![false; k];
-            for (j, &i) in ips.iter().chain([&ipd]).enumerate() {
-                match slots[i] {
-                    Slot::Fixed(v) => held[j] = v,
-                    Slot::Free(_) => free[j] = true,
-                }
+            let (held, free) = linear_coefficients(&slots, &ips, ipd);
+            for &i in ips.iter().chain([&ipd]) {
                 vals[i] = 0.0;
             }
-            held[k - 1] *= std::f64::consts::FRAC_1_PI;
             // The specular basis of lobe i: the model with that ps = 1 and every other linear
             // parameter 0.
             let lobe = |i: usize| {
@@ -1103,6 +1096,23 @@ pub(super) fn global_init(
         .collect()
 }
 
+/// A channel's linear coefficients (each lobe's ps at model indices `ips`, then pd/π at
+/// `ipd`) from its `slots`: each one's value where held (0 where free; pd divided by π, its
+/// basis being 1) and whether it is free.
+fn linear_coefficients(slots: &[Slot], ips: &[usize], ipd: usize) -> (Vec<f64>, Vec<bool>) {
+    let k = ips.len() + 1;
+    let mut held = vec![0.0; k];
+    let mut free = vec![false; k];
+    for (j, &i) in ips.iter().chain([&ipd]).enumerate() {
+        match slots[i] {
+            Slot::Fixed(v) => held[j] = v,
+            Slot::Free(_) => free[j] = true,
+        }
+    }
+    held[k - 1] *= std::f64::consts::FRAC_1_PI;
+    (held, free)
+}
+
 /// The share of a two-lobe grid's ordered points (α1 ≤ α2) scored on the declared loss: the
 /// best by the linearised cost (see [`two_lobe_prescreen`]).
 pub(super) const TWO_LOBE_KEEP: f64 = 0.25;
@@ -1120,16 +1130,7 @@ fn two_lobe_prescreen(
     dims: &[usize],
     ordered: impl Fn(usize) -> bool,
 ) -> Vec<bool> {
-    let k = ips.len() + 1;
-    let mut held = vec![0.0; k];
-    let mut free = vec![false; k];
-    for (j, &i) in ips.iter().chain([&ipd]).enumerate() {
-        match slots[i] {
-            Slot::Fixed(v) => held[j] = v,
-            Slot::Free(_) => free[j] = true,
-        }
-    }
-    held[k - 1] *= std::f64::consts::FRAC_1_PI;
+    let (held, free) = linear_coefficients(slots, ips, ipd);
     let lin = two_lobe_linearised(t, &held, &free, dims, &ordered);
     let total = lin.len();
     let mut finite: Vec<f64> = lin.iter().copied().filter(|v| v.is_finite()).collect();

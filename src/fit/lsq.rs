@@ -295,10 +295,10 @@ pub struct Normal {
 
 const CHUNK: usize = 4096;
 
-/// The fewest chunks run in parallel: a MERL table's 16,512 rows (five chunks) are, a 10k
-/// synthetic set or a 2,000-row subsample is not (its pass is too short to repay waking the
-/// thread pool).
-const PARALLEL_CHUNKS: usize = 4;
+/// The fewest chunks run in parallel: a MERL table's 16,512 rows (five chunks) and a 10k
+/// synthetic set (three) are, a 2,000-row subsample is not (its pass is too short to repay
+/// waking the other core).
+const PARALLEL_CHUNKS: usize = 2;
 
 /// `f` of every chunk of `m` residuals, in chunk order: in parallel when there are enough
 /// chunks to repay waking the thread pool, else on this thread (the same values either way).

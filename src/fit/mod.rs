@@ -278,8 +278,9 @@ pub struct FitResult {
     #[serde(default)]
     pub solve_seconds: f64,
     /// The part of `seconds` after the minimum is reached: the checks at return (first-order
-    /// conditions, `--verify`'s random starts), standard errors, correlations and the 1 %
-    /// ranges (profiled refits where the quadratic model does not hold).
+    /// conditions, `--verify`'s random starts), standard errors, correlations, the 1 %
+    /// ranges (profiled refits where the quadratic model does not hold) and the physical
+    /// check (pd, directional albedo, index; [`physical`]).
     #[serde(default)]
     pub statistics_seconds: f64,
     /// Honest warnings: undetermined parameters with the range that fits, limits reached.
@@ -489,8 +490,10 @@ impl FitResult {
 
 /// Fit `opts.kind` to every channel of `ds` (or jointly with `opts.shared`).
 pub fn fit(ds: &Dataset, opts: &FitOptions) -> Result<Vec<FitResult>, FitError> {
-    // Each channel's geometry pass is timed with its fit.
-    fit_with(ds, opts, |c| timed_rows(ds, c, opts))
+    // Each channel's geometry pass is timed with its fit. On a thread of rayon's pool (called
+    // from outside it, the work is handed to the pool once): each parallel stage then wakes
+    // the other core only, instead of putting this thread to sleep and waking it again.
+    rayon::scope(|_| fit_with(ds, opts, |c| timed_rows(ds, c, opts)))
 }
 
 /// [`fit`] with each channel's rows (and their geometry seconds) from `timed`.
@@ -730,7 +733,6 @@ fn fit_group(
     let checks = certify(&full, &mut found, &lay, &theta, opts);
     let u = uncertainty(&full, &found.sol, &theta, cost, &lay, opts, &mut warnings);
     let (params, stderr, free, correlation) = reported(&lay, &theta, &u);
-    let fit_seconds = t0.elapsed().as_secs_f64();
     let rss = 2.0 * cost;
     let mf = m as f64;
     let kf = nfree as f64;
@@ -753,10 +755,11 @@ fn fit_group(
         iterations: found.iterations,
         evaluations: found.evaluations,
         termination: found.sol.termination,
-        seconds: geometry_seconds + fit_seconds,
+        // Set below, once the physical check is done.
+        seconds: 0.0,
         geometry_seconds,
         solve_seconds,
-        statistics_seconds: fit_seconds - solve_seconds,
+        statistics_seconds: 0.0,
         warnings,
         bic: loglike_term + kf * mf.ln(),
         aic: loglike_term + 2.0 * kf,
@@ -770,5 +773,8 @@ fn fit_group(
     // Step 8: only physical fits in use (pd ≤ 1, albedo ≤ 1, no lobe held down by F ≈ 0).
     let unphysical = physical::problems(&result);
     result.unusable.extend(unphysical);
+    let fit_seconds = t0.elapsed().as_secs_f64();
+    result.seconds = geometry_seconds + fit_seconds;
+    result.statistics_seconds = fit_seconds - solve_seconds;
     Ok(result)
 }

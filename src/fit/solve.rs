@@ -23,15 +23,6 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
     let per = super::problem::SUBSAMPLE_ROWS;
     let sub = (full.rows.len() > per * full.layout.len()).then(|| full.subsample(per));
     let work = sub.as_ref().unwrap_or(full);
-    let mut candidates: Vec<Vec<f64>> = Vec::new();
-    if !opts.local_only {
-        // The grid's subsample is drawn from the local stage's (the same largest values, no
-        // second pass over every row).
-        candidates.extend(global_init(work, &lay.specs, opts));
-    }
-    if !opts.start.is_empty() || candidates.is_empty() {
-        candidates.push(start_vector(full, &lay.specs, &lay.names, &opts.start));
-    }
     // On a subsample only the basin matters: the polish on every row sets the final accuracy.
     let refine_limits = if sub.is_some() {
         Limits {
@@ -41,10 +32,38 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
     } else {
         opts.limits
     };
-    let mut sols: Vec<Solution> = candidates
-        .par_iter()
-        .map(|x0| lsq::solve(work, x0, opts.method, Robust::None, &refine_limits))
-        .collect();
+    let refine = |x0: &Vec<f64>| lsq::solve(work, x0, opts.method, Robust::None, &refine_limits);
+    let start = || start_vector(full, &lay.specs, &lay.names, &opts.start);
+    // The grid's subsample is drawn from the local stage's (the same largest values, no
+    // second pass over every row). A start given with the global initialisation is refined
+    // beside it (the other core, when free), its solution set after the grid's candidates'.
+    let (mut candidates, started) = if opts.local_only {
+        (Vec::new(), None)
+    } else if opts.start.is_empty() {
+        (global_init(work, &lay.specs, opts), None)
+    } else {
+        rayon::join(
+            || global_init(work, &lay.specs, opts),
+            || {
+                let x0 = start();
+                let s = refine(&x0);
+                Some((x0, s))
+            },
+        )
+    };
+    let mut sols: Vec<Solution> = candidates.par_iter().map(refine).collect();
+    match started {
+        Some((x0, s)) => {
+            candidates.push(x0);
+            sols.push(s);
+        }
+        None if !opts.start.is_empty() || candidates.is_empty() => {
+            let x0 = start();
+            sols.push(refine(&x0));
+            candidates.push(x0);
+        }
+        None => {}
+    }
     let mut iterations: usize = sols.iter().map(|s| s.iterations).sum();
     let mut evaluations: usize = sols.iter().map(|s| s.evaluations).sum();
     sols.sort_by(|a, b| a.cost.total_cmp(&b.cost));
