@@ -461,6 +461,28 @@ pub(super) fn ggx_lobe_values(alpha: f64, rows: &Rows, range: std::ops::Range<us
         .collect()
 }
 
+/// ABC's shape term D = (1 + b (1 − N·H))^(−c) (Löw et al. 2012, eq. 6 with A = 1) at each
+/// N·H of `nh` for every c of `cs`, appended to `out` one row of `nh.len()` per c: ln u once
+/// per row for all c, then e^(−c ln u) in lanes, as [`AbcBlock`] computes D.
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+pub(super) fn abc_shape_rows(b: f64, cs: &[f64], nh: &[f64], out: &mut Vec<f64>) {
+    // The tail's lanes past the end are N·H = 1 (u = 1) and are dropped.
+    let mut lu = Vec::with_capacity(nh.len().next_multiple_of(LANES));
+    for chunk in nh.chunks(LANES) {
+        let u: [f64; LANES] = std::array::from_fn(|l| {
+            1.0 + b * (1.0 - chunk.get(l).map_or(1.0, |v| v.clamp(0.0, 1.0)))
+        });
+        lu.extend(lanes::ln(&u));
+    }
+    let pad = lu.len() - nh.len();
+    for &c in cs {
+        for chunk in lu.chunks_exact(LANES) {
+            out.extend(lanes::exp(&std::array::from_fn(|l| -c * chunk[l])));
+        }
+        out.truncate(out.len() - pad);
+    }
+}
+
 /// One block of GGX–Smith: columns nl, ne, nh, eh, target. y = cosθi f_r =
 /// pd cosθi/π + ps F D G1(L) G1(E)/(4 N·E), zero specular where N·H ≤ 0 or E·H ≤ 0, as in
 /// `model::ggx_smith::brdf_grad`.
@@ -689,6 +711,35 @@ mod tests {
     use super::*;
     use crate::model::Geometry;
     use rand::{Rng, SeedableRng};
+
+    /// ABC's shape rows against `powf` (the definition, (1 + b (1 − N·H))^(−c)) for lengths
+    /// that do and do not fill the lanes, N·H outside [0, 1] clamped, and a lobe sharp
+    /// enough to underflow to 0 far from its peak.
+    #[test]
+    fn abc_shape_rows_match_powf() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(25);
+        for m in [1, 7, 8, 9, 500] {
+            let mut nh: Vec<f64> = (0..m).map(|_| rng.random_range(-0.1..1.1)).collect();
+            nh[0] = 1.0;
+            for b in [1e-3, 3.7, 2e4, 1e9] {
+                let cs = [0.05, 0.3, 2.0, 50.0];
+                let mut out = Vec::new();
+                abc_shape_rows(b, &cs, &nh, &mut out);
+                assert_eq!(out.len(), cs.len() * m);
+                for (j, c) in cs.iter().enumerate() {
+                    for (i, x) in nh.iter().enumerate() {
+                        let want = (1.0 + b * (1.0 - x.clamp(0.0, 1.0))).powf(-c);
+                        let got = out[j * m + i];
+                        let tol = 1e-13 * want + 1e-300;
+                        assert!(
+                            (got - want).abs() <= tol,
+                            "m {m} b {b} c {c} nh {x}: {got} vs {want}"
+                        );
+                    }
+                }
+            }
+        }
+    }
 
     /// Random rows over the hemisphere (targets of either loss), weighted or not.
     fn random_rows(rng: &mut impl Rng, m: usize, weighted: bool, loss: Loss) -> Rows {

@@ -820,6 +820,12 @@ pub fn ggx_lobe_values(alpha: f64, rows: &Rows, range: std::ops::Range<usize>) -
     kernels::ggx_lobe_values(alpha, rows, range)
 }
 
+/// ABC's shape term (1 + b (1 − N·H))^(−c) at each N·H of `nh` for every c of `cs`, one row
+/// per c appended to `out` (the form of ABC's lane kernel).
+pub fn abc_shape_rows(b: f64, cs: &[f64], nh: &[f64], out: &mut Vec<f64>) {
+    kernels::abc_shape_rows(b, cs, nh, out)
+}
+
 /// f_r of `model` at rows `range` (the lane form of [`TsD3`] for Torrance–Sparrow with D3).
 pub fn brdf_values(model: &Model, rows: &Rows, range: std::ops::Range<usize>) -> Vec<f64> {
     if model.kind == ModelKind::TorranceSparrow && model.dist == Distribution::D3 {
