@@ -633,16 +633,19 @@ struct Prepared<'a> {
 
 impl<'a> Prepared<'a> {
     fn new(image: &'a Image, mask: &[bool]) -> Prepared<'a> {
-        Prepared {
-            image,
-            flip: compare::FlipReference::new(
-                &crate::render::to_srgb8(image),
-                image.width,
-                image.height,
-                compare::PIXELS_PER_DEGREE,
-            ),
-            itp: compare::itp_masked(&image.pixels, mask),
-        }
+        // The two sides in parallel (each deterministic).
+        let (flip, itp) = rayon::join(
+            || {
+                compare::FlipReference::new(
+                    &crate::render::to_srgb8(image),
+                    image.width,
+                    image.height,
+                    compare::PIXELS_PER_DEGREE,
+                )
+            },
+            || compare::itp_masked(&image.pixels, mask),
+        );
+        Prepared { image, flip, itp }
     }
 
     /// Per-pixel LDR-ꟻLIP of `test` against the reference (on the 8-bit sRGB images).
@@ -962,11 +965,21 @@ fn run_case(
     let table = reference.measured.then(|| reference.table.clone());
     // One geometry pass (primary hits and the light's geometry at every pixel corner) for
     // every render of the case: the reference, the folds and both fits of each candidate.
-    let corners = case.scene.corners();
-    let (ref_img, reference_seconds) =
-        render_with(&case.scene, &corners, material(reference.fill, table));
-    let (samples, mask, lit) = scene_samples(&case.scene, 0, &|g| reference.brdf(g));
-    let measured_share = reference.measured_share(&samples);
+    // The scene-weighted samples (the candidates' fits) beside that pass and the reference's
+    // render: they read the reference's table, not its image.
+    let ((corners, (ref_img, reference_seconds)), ((samples, mask, lit), measured_share)) =
+        rayon::join(
+            || {
+                let corners = case.scene.corners();
+                let rendered = render_with(&case.scene, &corners, material(reference.fill, table));
+                (corners, rendered)
+            },
+            || {
+                let s = scene_samples(&case.scene, 0, &|g| reference.brdf(g));
+                let share = reference.measured_share(&s.0);
+                (s, share)
+            },
+        );
     progress(&format!(
         "{}: {} lit pixels in {} configurations, {:.0} % of them in measured cells; \
          reference rendered in {:.2} s",
@@ -1208,36 +1221,46 @@ fn write_case(
     threshold: &ThresholdJson,
 ) -> anyhow::Result<Vec<std::path::PathBuf>> {
     use crate::output::write_bytes_atomic;
-    // The renders' PNG and EXR encodings in parallel; the paths in render order.
-    let saved = imgs
-        .renders
-        .par_iter()
-        .enumerate()
-        .map(|(k, (name, img))| {
-            crate::render::save(
-                img,
-                &sub.join(if k == 0 { "measured" } else { name.as_str() }),
-            )
-        })
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    let mut wrote: Vec<std::path::PathBuf> = saved.into_iter().flatten().collect();
-    if case.verdict == Verdict::Undetermined {
-        let path = sub.join("reference-error.png");
-        write_bytes_atomic(&path, &reference_error_png(imgs, threshold)?)?;
-        wrote.push(path);
-    }
-    let sheet = sub.join("sheet.png");
-    write_bytes_atomic(&sheet, &contact_sheet(case, imgs, threshold)?)?;
-    wrote.push(sheet);
-    let (svg, png) = crate::plot::save(
-        &TradeoffChart {
-            case: case.clone(),
-            threshold: threshold.clone(),
+    // The renders' PNG and EXR encodings in parallel, beside the error map, the sheet and
+    // the chart (each file is written whole, so the order of work is free); the paths in
+    // render order, then the others.
+    let (saved, others) = rayon::join(
+        || {
+            imgs.renders
+                .par_iter()
+                .enumerate()
+                .map(|(k, (name, img))| {
+                    crate::render::save(
+                        img,
+                        &sub.join(if k == 0 { "measured" } else { name.as_str() }),
+                    )
+                })
+                .collect::<anyhow::Result<Vec<_>>>()
         },
-        &sub.join("chart"),
-    )?;
-    wrote.push(svg);
-    wrote.push(png);
+        || -> anyhow::Result<Vec<std::path::PathBuf>> {
+            let mut wrote = Vec::new();
+            if case.verdict == Verdict::Undetermined {
+                let path = sub.join("reference-error.png");
+                write_bytes_atomic(&path, &reference_error_png(imgs, threshold)?)?;
+                wrote.push(path);
+            }
+            let sheet = sub.join("sheet.png");
+            write_bytes_atomic(&sheet, &contact_sheet(case, imgs, threshold)?)?;
+            wrote.push(sheet);
+            let (svg, png) = crate::plot::save(
+                &TradeoffChart {
+                    case: case.clone(),
+                    threshold: threshold.clone(),
+                },
+                &sub.join("chart"),
+            )?;
+            wrote.push(svg);
+            wrote.push(png);
+            Ok(wrote)
+        },
+    );
+    let mut wrote: Vec<std::path::PathBuf> = saved?.into_iter().flatten().collect();
+    wrote.extend(others?);
     Ok(wrote)
 }
 
@@ -1420,7 +1443,7 @@ fn contact_sheet(
     let w = gap + cols * (tile + gap);
     let srgb: Vec<Vec<u8>> = imgs
         .renders
-        .iter()
+        .par_iter()
         .map(|(_, i)| crate::render::to_srgb8(i))
         .collect();
     let (iw, ih) = (imgs.renders[0].1.width, imgs.renders[0].1.height);
@@ -1465,16 +1488,23 @@ fn contact_sheet(
     let scale = flip_scale(&p99);
     // The colour bar spans x = 8 … tile − 9 of the reference's lower tile.
     let (bar0, bar1) = (8u32, tile - 9);
-    for k in 0..n {
+    // Each cell's zoomed render and map in parallel (each deterministic), then laid out.
+    let tiles: Vec<(Vec<u8>, Option<Vec<u8>>)> = (0..n as usize)
+        .into_par_iter()
+        .map(|k| {
+            let render = crate::render::zoom_crop(&srgb[k], iw, (cx, cy, side), tile);
+            let map = (k > 0).then(|| {
+                let coloured: Vec<u8> = imgs.flip_maps[k - 1]
+                    .iter()
+                    .flat_map(|&e| magma(&lut, e, scale as f32))
+                    .collect();
+                crate::render::zoom_crop(&coloured, iw, (cx, cy, side), tile)
+            });
+            (render, map)
+        })
+        .collect();
+    for (k, (render, map)) in (0..n).zip(tiles) {
         let (x0, y0) = origin(k);
-        let render = crate::render::zoom_crop(&srgb[k as usize], iw, (cx, cy, side), tile);
-        let map = (k > 0).then(|| {
-            let coloured: Vec<u8> = imgs.flip_maps[k as usize - 1]
-                .iter()
-                .flat_map(|&e| magma(&lut, e, scale as f32))
-                .collect();
-            crate::render::zoom_crop(&coloured, iw, (cx, cy, side), tile)
-        });
         for y in 0..tile {
             for x in 0..tile {
                 let i = 3 * (y * tile + x) as usize;

@@ -112,3 +112,26 @@ fn one_reference_against_many_smooth_images() {
         assert_close(&prepared.against(t), &want, &format!("case {k}"));
     }
 }
+
+/// Two single-pixel differences at opposite corners of a textured image: the window spans
+/// the whole image but most of it lies beyond the filters' reach of either difference, where
+/// the error is exactly 0 (not converted); everywhere NVIDIA's numbers.
+#[test]
+fn sparse_differences_far_apart_give_nvidias_numbers() {
+    let (w, h) = (120usize, 100usize);
+    let (r, mut t) = images(w, h, [0, 0, 0, 0], 11);
+    t.copy_from_slice(&r);
+    for (x, y) in [(3usize, 4usize), (112, 93)] {
+        let i = 3 * (y * w + x);
+        t[i] = r[i].wrapping_add(90);
+        t[i + 2] = r[i + 2].wrapping_add(40);
+    }
+    let want = nvidia(&r, &t, w as u32, h as u32);
+    let prepared = FlipReference::new(&r, w as u32, h as u32, PIXELS_PER_DEGREE);
+    let got = prepared.against(&t);
+    assert_close(&got, &want, "two far differences");
+    // Beyond the reach (11 pixels at 67 pixels per degree) of both, NVIDIA's error is 0 too.
+    assert_eq!(got[50 * w + 60], 0.0);
+    assert_eq!(want[50 * w + 60], 0.0);
+    assert!(got[4 * w + 3] > 0.0 && got[93 * w + 112] > 0.0);
+}

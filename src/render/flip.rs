@@ -276,11 +276,20 @@ struct Planes {
 
 /// [`Planes`] of the window `win` (x0, y0, x1, y1 inclusive; row by row) of a `w`×`h` image
 /// whose YCxCz `img` covers the window widened by the filters' reach (clipped to the image).
+/// Where `need` (one flag a window pixel, row by row) is given and false, the pixel's colour
+/// and features are left 0 (its filtered sums are made, not converted).
 ///
 /// Each pass sums a pixel's taps in NVIDIA's order, from 0, with the column or row each tap
 /// reads clamped to the image; the loops run over the taps outside and the pixels of a row
 /// inside (the same sums, vectorised).
-fn planes(img: &Patch, w: usize, h: usize, win: [usize; 4], f: &Filters) -> Planes {
+fn planes(
+    img: &Patch,
+    w: usize,
+    h: usize,
+    win: [usize; 4],
+    f: &Filters,
+    need: Option<&[bool]>,
+) -> Planes {
     let [x0, y0, x1, y1] = win;
     let cw = x1 + 1 - x0;
     let rows = y1 + 1 - y0;
@@ -412,6 +421,11 @@ fn planes(img: &Patch, w: usize, h: usize, win: [usize; 4], f: &Filters) -> Plan
             }
         }
         for j in 0..cw {
+            if need.is_some_and(|n| !n[(y - y0) * cw + j]) {
+                lab.push([0.0; 3]);
+                features.push([0.0; 2]);
+                continue;
+            }
             let c = [s[0][j], s[1][j], s[2][j] + s[3][j]];
             let rgb = xyz_to_linear_rgb(ycxcz_to_xyz(c)).map(clamp01);
             lab.push(hunt(xyz_to_lab(linear_rgb_to_xyz(rgb))));
@@ -463,7 +477,14 @@ impl FlipReference {
                 features: Vec::new(),
             }
         } else {
-            planes(&Patch::new(srgb, w, whole, &lut), w, h, whole, &filters)
+            planes(
+                &Patch::new(srgb, w, whole, &lut),
+                w,
+                h,
+                whole,
+                &filters,
+                None,
+            )
         };
         FlipReference {
             width: w,
@@ -479,11 +500,14 @@ impl FlipReference {
     /// the reference: NVIDIA's numbers. Computed on the smallest window holding every pixel
     /// where the images differ, widened by the filters' reach (clipped to the image), and 0
     /// elsewhere: a pixel beyond the reach of every difference sees equal neighbourhoods in
-    /// both images, equal filtered colours and features, and ꟻLIP 0^1 = 0.
+    /// both images, equal filtered colours and features, and ꟻLIP 0^1 = 0. For the same
+    /// reason a window pixel with no difference within the reach (in x and in y) is 0 without
+    /// converting its filtered colour.
     pub fn against(&self, test: &[u8]) -> Vec<f32> {
         let (w, h) = (self.width, self.height);
         let mut map = vec![0.0f32; w * h];
         let mut window: Option<[usize; 4]> = None;
+        let mut differs = vec![false; w * h];
         for y in 0..h {
             let row = 3 * y * w..3 * (y + 1) * w;
             if self.srgb[row.clone()] == test[row] {
@@ -492,6 +516,7 @@ impl FlipReference {
             for x in 0..w {
                 let i = 3 * (y * w + x);
                 if self.srgb[i..i + 3] != test[i..i + 3] {
+                    differs[y * w + x] = true;
                     let b = window.get_or_insert([x, y, x, y]);
                     *b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
                 }
@@ -507,6 +532,7 @@ impl FlipReference {
             (x1 + r).min(w - 1),
             (y1 + r).min(h - 1),
         ];
+        let need = within_reach(&differs, w, win, r);
         // The test's YCxCz where the window's filters read: the window widened once more.
         let read = [
             win[0].saturating_sub(r),
@@ -515,9 +541,12 @@ impl FlipReference {
             (win[3] + r).min(h - 1),
         ];
         let patch = Patch::new(test, w, read, &self.lut);
-        let t = planes(&patch, w, h, win, &self.filters);
+        let t = planes(&patch, w, h, win, &self.filters, Some(&need));
         let cw = win[2] + 1 - win[0];
         for (k, (t_lab, t_feat)) in t.lab.iter().zip(&t.features).enumerate() {
+            if !need[k] {
+                continue;
+            }
             let i = (win[1] + k / cw) * w + win[0] + k % cw;
             map[i] = pixel_error(
                 &self.filters,
@@ -526,5 +555,81 @@ impl FlipReference {
             );
         }
         map
+    }
+}
+
+/// Per pixel of the window `win` (x0, y0, x1, y1 inclusive; row by row) of a `w`-wide
+/// image: whether a pixel flagged in `differs` lies within `r` of it in x and in y (all a
+/// ꟻLIP filter of that reach reads), by running counts along rows, then along columns.
+fn within_reach(differs: &[bool], w: usize, win: [usize; 4], r: usize) -> Vec<bool> {
+    let [x0, y0, x1, y1] = win;
+    let h = differs.len() / w.max(1);
+    let cw = x1 + 1 - x0;
+    // The rows a window row's column test reads.
+    let (ry0, ry1) = (y0.saturating_sub(r), (y1 + r).min(h - 1));
+    // Along rows: a difference within r columns.
+    let mut near_x = vec![false; (ry1 + 1 - ry0) * cw];
+    let mut count = vec![0u32; w + 1];
+    for y in ry0..=ry1 {
+        let row = &differs[y * w..(y + 1) * w];
+        for (x, &d) in row.iter().enumerate() {
+            count[x + 1] = count[x] + d as u32;
+        }
+        for j in 0..cw {
+            let x = x0 + j;
+            let (a, b) = (x.saturating_sub(r), (x + r).min(w - 1));
+            near_x[(y - ry0) * cw + j] = count[b + 1] > count[a];
+        }
+    }
+    // Along columns: a row within r rows with a difference near in x.
+    let mut col = vec![0u32; (ry1 + 2 - ry0) * cw];
+    for k in 0..ry1 + 1 - ry0 {
+        for j in 0..cw {
+            col[(k + 1) * cw + j] = col[k * cw + j] + near_x[k * cw + j] as u32;
+        }
+    }
+    let mut need = Vec::with_capacity(cw * (y1 + 1 - y0));
+    for y in y0..=y1 {
+        let (a, b) = (y.saturating_sub(r).max(ry0) - ry0, (y + r).min(ry1) - ry0);
+        for j in 0..cw {
+            need.push(col[(b + 1) * cw + j] > col[a * cw + j]);
+        }
+    }
+    need
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// [`within_reach`] against the definition checked pixel by pixel: a flagged pixel at
+    /// most `r` away in x and in y, on windows at the border, inside, and the whole image.
+    #[test]
+    fn within_reach_is_the_flagged_pixels_widened_by_the_reach() {
+        let (w, h, r) = (37usize, 29usize, 4usize);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        for density in [0.002, 0.02, 0.2] {
+            let differs: Vec<bool> = (0..w * h).map(|_| rng.random_bool(density)).collect();
+            for win in [
+                [0, 0, w - 1, h - 1],
+                [5, 3, 20, 17],
+                [30, 20, 36, 28],
+                [0, 10, 8, 12],
+            ] {
+                let got = within_reach(&differs, w, win, r);
+                let mut want = Vec::new();
+                for y in win[1]..=win[3] {
+                    for x in win[0]..=win[2] {
+                        want.push((0..h).any(|yy| {
+                            (0..w).any(|xx| {
+                                differs[yy * w + xx] && xx.abs_diff(x) <= r && yy.abs_diff(y) <= r
+                            })
+                        }));
+                    }
+                }
+                assert_eq!(got, want, "density {density}, window {win:?}");
+            }
+        }
     }
 }

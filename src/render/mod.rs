@@ -959,9 +959,26 @@ impl Scene {
     pub fn lit_configurations(&self, material: usize) -> (Vec<[f64; 3]>, Vec<bool>) {
         let (w, h) = (self.camera.width, self.camera.height);
         let cam = self.camera.frame();
+        // Rows in parallel, joined in row order: the same list as row by row.
+        let rows: Vec<(Vec<[f64; 3]>, Vec<bool>)> = (0..h)
+            .into_par_iter()
+            .map(|y| self.lit_row(&cam, material, y))
+            .collect();
         let mut configs = Vec::new();
-        let mut mask = vec![false; (w as usize) * (h as usize)];
-        for y in 0..h {
+        let mut mask = Vec::with_capacity((w as usize) * (h as usize));
+        for (c, m) in rows {
+            configs.extend(c);
+            mask.extend(m);
+        }
+        (configs, mask)
+    }
+
+    /// Row `y` of [`Scene::lit_configurations`]: its configurations and its mask.
+    fn lit_row(&self, cam: &CameraFrame, material: usize, y: u32) -> (Vec<[f64; 3]>, Vec<bool>) {
+        let w = self.camera.width;
+        let mut configs = Vec::new();
+        let mut mask = vec![false; w as usize];
+        {
             for x in 0..w {
                 let r = cam.ray(x as f64 + 0.5, y as f64 + 0.5);
                 let Some((oi, t, n_out)) = self.intersect(&r, f64::INFINITY) else {
@@ -970,7 +987,7 @@ impl Scene {
                 if self.objects[oi].material != material {
                     continue;
                 }
-                mask[(y * w + x) as usize] = true;
+                mask[x as usize] = true;
                 let p = r.o + t * r.d;
                 let n = if n_out.dot(r.d) > 0.0 { -n_out } else { n_out };
                 let e = -r.d;
