@@ -435,7 +435,7 @@ fn fix_outside_the_fit_box_is_refused_at_the_flag() {
             "fit", data, "--model", "phong", "--fix", "c1=1e9", "--json", j,
         ],
         &[
-            "--fix c1=1000000000",
+            "--fix c1=1e9 ",
             "0 < c1 ≤ 1e8",
             "fix: give --fix c1=VALUE with",
         ],
@@ -457,6 +457,23 @@ fn fix_outside_the_fit_box_is_refused_at_the_flag() {
         "fit", data, "--model", "phong", "--fix", "c1=1e8", "--json", j,
     ]);
     ok(&["export", j, "--to", "mitsuba"]);
+    // The same file edited by hand to c1 = 1e300 is refused on reading, the value written
+    // back as 1e300 (it was printed with all 301 digits).
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let fit = if v.get("fits").is_some() {
+        &mut v["fits"][0]
+    } else {
+        &mut v
+    };
+    fit["params"]["c1"] = serde_json::Value::from(1e300);
+    let edited = dir.path().join("edited.json");
+    std::fs::write(&edited, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+    let err = fails(
+        &["export", edited.to_str().unwrap(), "--to", "mitsuba"],
+        &["params.c1 = 1e300 is outside the range a fit can return"],
+    );
+    assert!(!err.contains("10000000000"), "{err}");
 }
 
 /// `render fig7 -o x.jpg` made a folder named x.jpg; fig7 writes a folder, so a name with an
@@ -487,11 +504,25 @@ fn fig7_output_with_an_extension_is_refused() {
     assert!(sheet.is_file());
     // An existing file is no folder.
     let file = write(d, "taken", b"not a folder");
-    fails(
+    let err = fails(
         &["render", "fig7", "--res", "8", "-o", file.to_str().unwrap()],
         &["is a file", "fix: give a folder"],
     );
     assert_eq!(std::fs::read(&file).unwrap(), b"not a folder");
+    // Its fix, followed, works: it names a folder that is not the file itself.
+    let fixed = word_after(&err, "e.g. -o ");
+    assert_ne!(Path::new(fixed), file.as_path(), "{err}");
+    ok(&["render", "fig7", "--res", "8", "-o", fixed]);
+    assert!(Path::new(fixed).join("fig7.png").is_file(), "{err}");
+    // So does the fix for a name with an extension whose stem is an existing file.
+    let jpg = d.join("taken.jpg");
+    let err = fails(
+        &["render", "fig7", "--res", "8", "-o", jpg.to_str().unwrap()],
+        &["not a .jpg file", "fix: give a folder name"],
+    );
+    let fixed = word_after(&err, "e.g. -o ");
+    assert_ne!(Path::new(fixed), file.as_path(), "{err}");
+    ok(&["render", "fig7", "--res", "8", "-o", fixed]);
     // An existing folder with a dot in its name is a folder.
     let dotted = d.join("run.v2");
     std::fs::create_dir(&dotted).unwrap();

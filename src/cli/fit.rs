@@ -228,7 +228,8 @@ pub(crate) fn fit_one(
                 && !spec.in_fit_box(*v)
             {
                 bail!(
-                    "on the command line: --fix {k}={v} is outside the range a fit can return ({}: {})\n  fix: give --fix {k}=VALUE with {}",
+                    "on the command line: --fix {k}={} is outside the range a fit can return ({}: {})\n  fix: give --fix {k}=VALUE with {}",
+                    brdfit::model::exact(*v),
                     kind.label(*dist),
                     spec.fit_box_text(),
                     spec.fit_box_text()

@@ -3,7 +3,7 @@
 use super::*;
 use anyhow::{Result, anyhow, bail};
 use brdfit::model::{Model, ModelKind};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The Torrance–Sparrow model of a fit file for Figure 7 (`default` without one): the file's
 /// torrance-sparrow fit of the channel `pick` and `channel` ask for.
@@ -81,7 +81,7 @@ fn fig7_folder(output: &Path) -> Result<()> {
     if output.exists() && !output.is_dir() {
         bail!(
             "-o {name}: is a file, and render fig7 writes a folder (eight images as PNG and EXR, and the contact sheet fig7.png)\n  fix: give a folder, e.g. -o {}",
-            output.with_extension("").display()
+            free_folder(output).display()
         );
     }
     if let Some(e) = output.extension()
@@ -90,11 +90,31 @@ fn fig7_folder(output: &Path) -> Result<()> {
         bail!(
             "-o {name}: render fig7 writes a folder (eight images as PNG and EXR, and the contact sheet fig7.png), not a .{} file\n  fix: give a folder name without an extension, e.g. -o {} (it writes {})",
             e.to_string_lossy(),
-            output.with_extension("").display(),
-            output.with_extension("").join("fig7.png").display()
+            free_folder(output).display(),
+            free_folder(output).join("fig7.png").display()
         );
     }
     Ok(())
+}
+
+/// A folder name for fig7's fix that works when followed: `output` without its extension, or
+/// with `-fig7` (then `-fig7-2`, …) appended while that names an existing file.
+fn free_folder(output: &Path) -> PathBuf {
+    let base = output.with_extension("");
+    let mut candidate = base.clone();
+    let mut k = 1;
+    while candidate.exists() && !candidate.is_dir() {
+        let suffix = if k == 1 {
+            "-fig7".to_string()
+        } else {
+            format!("-fig7-{k}")
+        };
+        let mut name = base.as_os_str().to_owned();
+        name.push(suffix);
+        candidate = PathBuf::from(name);
+        k += 1;
+    }
+    candidate
 }
 
 pub(crate) fn run_render(

@@ -343,7 +343,8 @@ pub(crate) fn check_fit_object(v: &serde_json::Value) -> Result<(), FitFileError
         if !spec.in_fit_box(val) {
             return Err(err(
                 format!(
-                    "params.{name} = {val} is outside the range a fit can return: {}",
+                    "params.{name} = {} is outside the range a fit can return: {}",
+                    crate::model::exact(val),
                     spec.fit_box_text()
                 ),
                 format!("refit, or write a value with {}", spec.fit_box_text()),

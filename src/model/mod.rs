@@ -884,6 +884,16 @@ pub fn readable(v: f64) -> String {
     }
 }
 
+/// A number as written back to the user in an error: every digit, in scientific form from 1e4
+/// up (`1e300`, not 301 digits).
+pub fn exact(x: f64) -> String {
+    if x.abs() >= 1e4 {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
 /// A number with at most 4 significant digits, without trailing zeros (for labels).
 pub fn short(v: f64) -> String {
     significant(v, 4)

@@ -46,7 +46,7 @@
 use super::{
     AntiAlias, Camera, Checker, Light, Material, Mesh, Object, RoughnessTexture, Scene, Shape,
 };
-use crate::model::{Distribution, Model, ModelKind};
+use crate::model::{Distribution, Model, ModelKind, exact};
 use anyhow::{Context, Result, anyhow, bail};
 use glam::DVec3;
 use serde::Deserialize;
@@ -295,15 +295,6 @@ impl<'a> Lines<'a> {
     }
 }
 
-/// A bound in a message: 1e6 rather than 1000000.
-fn show(x: f64) -> String {
-    if x.abs() >= 1e4 {
-        format!("{x:e}")
-    } else {
-        format!("{x}")
-    }
-}
-
 /// `v` within [lo, hi] (and finite), or an error naming `key`.
 fn closed(key: &str, v: f64, lo: f64, hi: f64) -> Result<f64> {
     if v >= lo && v <= hi {
@@ -311,9 +302,9 @@ fn closed(key: &str, v: f64, lo: f64, hi: f64) -> Result<f64> {
     } else {
         bail!(
             "{key} = {} is out of range\n  fix: give a finite number from {} to {}",
-            show(v),
-            show(lo),
-            show(hi)
+            exact(v),
+            exact(lo),
+            exact(hi)
         )
     }
 }
@@ -325,8 +316,8 @@ fn positive(key: &str, v: f64, hi: f64) -> Result<f64> {
     } else {
         bail!(
             "{key} = {} is out of range\n  fix: give a finite number greater than 0 and at most {}",
-            show(v),
-            show(hi)
+            exact(v),
+            exact(hi)
         )
     }
 }
@@ -351,7 +342,7 @@ fn color(key: &str, c: &ColorSpec, hi: f64) -> Result<DVec3> {
     } else {
         bail!(
             "{key} = {v:?} is out of range\n  fix: give a number or [r, g, b], each finite from 0 to {}",
-            show(hi)
+            exact(hi)
         )
     }
 }
@@ -363,7 +354,7 @@ fn position(key: &str, v: [f64; 3]) -> Result<DVec3> {
     } else {
         bail!(
             "{key} = {v:?} is out of range\n  fix: give three finite coordinates of magnitude at most {}",
-            show(MAX_COORD)
+            exact(MAX_COORD)
         )
     }
 }
@@ -376,7 +367,7 @@ fn direction(key: &str, v: [f64; 3]) -> Result<DVec3> {
     } else {
         bail!(
             "{key} = {v:?} is not a direction\n  fix: give three finite numbers, not all zero, of magnitude at most {}",
-            show(MAX_COORD)
+            exact(MAX_COORD)
         )
     }
 }
@@ -589,7 +580,7 @@ pub fn parse_scene_noted(text: &str, dir: &Path, notes: &mut Vec<String>) -> Res
             return Err(at("intensity")(anyhow!(
                 "{owner}: color × intensity = {:?} is above {}\n  fix: lower the intensity or the colour",
                 power.to_array(),
-                show(MAX_INTENSITY)
+                exact(MAX_INTENSITY)
             )));
         }
         lights.push(match l.kind.as_str() {
@@ -768,7 +759,7 @@ fn model_params(
                 v.span(),
                 format!(
                     "`params.{k}` = {} is outside the range a fit can return: {}",
-                    show(x),
+                    exact(x),
                     spec.fit_box_text()
                 ),
                 format!("write a value with {}", spec.fit_box_text()),
@@ -801,7 +792,7 @@ fn model_params(
             ),
             format!(
                 "lower ps or pd: the albedo may be at most {} (a physical material's is at most 1)",
-                show(MAX_ALBEDO)
+                exact(MAX_ALBEDO)
             ),
         )
         .into());
