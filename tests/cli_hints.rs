@@ -673,3 +673,35 @@ fn scene_albedo_above_one_warns() {
         assert!(!err.contains("warning"), "pd = {pd}: {err}");
     }
 }
+
+/// `--fix q=1` (no such parameter) and `--start c3=5` (outside c3's bounds) were reported
+/// against the data file ("data/blinn-mgo.csv: model torrance-sparrow has no parameter q"),
+/// though the data are fine: they name the command line and the flag, and the fix followed fits.
+#[test]
+fn fix_and_start_errors_name_the_command_line() {
+    let data = "data/blinn-mgo.csv";
+    let err = fails(
+        &["fit", data, "--fix", "q=1"],
+        &[
+            "on the command line: --fix q=1",
+            "no parameter q",
+            "n, c3, ps, pd",
+        ],
+    );
+    assert!(!err.contains("blinn-mgo.csv"), "{err}");
+    let err = fails(
+        &["fit", data, "--model", "all", "--start", "q=1"],
+        &["on the command line: --start q=1", "none of the models"],
+    );
+    assert!(!err.contains("blinn-mgo.csv"), "{err}");
+    let err = fails(
+        &["fit", data, "--start", "c3=5"],
+        &[
+            "on the command line: --start c3=5 is outside its bounds",
+            "0 < c3 ≤ 1",
+            "fix: give --start c3=VALUE",
+        ],
+    );
+    assert!(!err.contains("blinn-mgo.csv"), "{err}");
+    ok(&["fit", data, "--start", "c3=0.5"]);
+}

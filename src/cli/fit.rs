@@ -238,6 +238,7 @@ pub(crate) fn fit_one(
         }
     }
     let start = parse_assignments("--start", &a.start)?;
+    check_flag_params(&kinds, &fix, &start)?;
     let mut opts = Vec::new();
     for (kind, dist) in &kinds {
         let mut o = FitOptions::new(*kind);
@@ -349,4 +350,53 @@ fn holds(path: &Path, fits: &[&brdfit::fit::FitResult]) -> String {
         "; consumers take every channel (export, scenes: as colour) or pick one with --channel"
     };
     format!("{} holds {m} of {c}{tail}", path.display())
+}
+
+/// `--fix` and `--start` checked on the command line, before any fit: every name must be a
+/// parameter of a model being fitted, and every value within that parameter's bounds. The
+/// library checks the same per fit, but its error is then reported against the data file.
+fn check_flag_params(
+    kinds: &[(ModelKind, Distribution)],
+    fix: &[(String, f64)],
+    start: &[(String, f64)],
+) -> Result<()> {
+    for (flag, list) in [("--fix", fix), ("--start", start)] {
+        for (k, v) in list {
+            let mut found = false;
+            for (kind, dist) in kinds {
+                let Some(spec) = kind.params(*dist).iter().find(|s| s.name == k) else {
+                    continue;
+                };
+                found = true;
+                if !spec.admits(*v) {
+                    let bounds = spec.bounds_text();
+                    bail!(
+                        "on the command line: {flag} {k}={} is outside its bounds ({}: {bounds})\n  fix: give {flag} {k}=VALUE with {bounds}",
+                        brdfit::model::exact(*v),
+                        kind.label(*dist)
+                    );
+                }
+            }
+            if !found {
+                let mut names: Vec<&str> = Vec::new();
+                for (kind, dist) in kinds {
+                    for n in kind.param_names(*dist) {
+                        if !names.contains(&n) {
+                            names.push(n);
+                        }
+                    }
+                }
+                let which = match kinds {
+                    [(kind, dist)] => format!("{} has", kind.label(*dist)),
+                    _ => "none of the models fitted has".to_string(),
+                };
+                bail!(
+                    "on the command line: {flag} {k}={}: {which} no parameter {k}\n  fix: name one of its parameters: {}",
+                    brdfit::model::exact(*v),
+                    names.join(", ")
+                );
+            }
+        }
+    }
+    Ok(())
 }
