@@ -24,7 +24,10 @@
 #   own/common  own cost relative to common cost at the same parameters; `!` marks |x| > 1e-6
 #
 #   PYTHON=/tmp/peers/bin/python [MODELS="ts-d3 ggx-smith"] [REAL=FILE|""] [REPEAT=5] \
-#     benches/compare_scipy.sh [SIZES...]
+#     [BRDFIT=PATH] benches/compare_scipy.sh [SIZES...]
+#
+# BRDFIT names another brdfit binary to time (say, a saved build of the round before, for a side
+# by side in one session); without it the script builds this checkout and times that.
 #
 # Needs numpy and scipy for PYTHON (python3 -m venv /tmp/peers && /tmp/peers/bin/pip install numpy scipy).
 set -euo pipefail
@@ -35,8 +38,13 @@ SIZES=${*:-10000 1000000}
 MODELS=${MODELS:-lambert phong blinn-phong ts-d1 ts-d2 ts-d3 ts-abc ggx-smith ggx-smith-2}
 REAL=${REAL-data/merl-alumina-oxide.csv}
 REPEAT=${REPEAT:-5}
-cargo build --release -q
-BIN=target/release/brdfit
+if [ -n "${BRDFIT:-}" ]; then
+  BIN=$BRDFIT
+  [ -x "$BIN" ] || { echo "BRDFIT=$BIN is not an executable; fix: give the path of a built brdfit binary" >&2; exit 2; }
+else
+  cargo build --release -q
+  BIN=target/release/brdfit
+fi
 if ! $PYTHON -c "import scipy" 2>/dev/null; then
   echo "needs scipy for $PYTHON; fix: python3 -m venv /tmp/peers && /tmp/peers/bin/pip install numpy scipy, then PYTHON=/tmp/peers/bin/python" >&2
   exit 2
