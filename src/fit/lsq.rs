@@ -503,6 +503,12 @@ pub fn levenberg_marquardt<P: Problem>(
     let mut converged = false;
     // The cost at the start and after each accepted step (for `limits.stall`).
     let mut accepted = vec![ne.cost];
+    // Where the cost curves more than JᵀJ says along the step (a large residual), the
+    // Gauss–Newton step overshoots and the steps alternate in sign, each a fixed fraction of
+    // the last: a linear rate. Once two accepted steps point opposite ways, every step is
+    // scaled by `shrink`, the minimum of the cost along the last step (see [`step_shrink`]).
+    let mut shrink = 1.0;
+    let mut last_step: Option<Vec<f64>> = None;
     while iter < limits.max_iter {
         if evals >= limits.max_eval {
             termination = "evaluation limit reached".into();
@@ -520,7 +526,7 @@ pub fn levenberg_marquardt<P: Problem>(
         for i in 0..dim {
             d[i] = d[i].max(ne.jtj[i * dim + i]);
         }
-        let Some(h) = damped_solve(&ne.jtj, &ne.jtr, &d, mu, &active) else {
+        let Some(mut h) = damped_solve(&ne.jtj, &ne.jtr, &d, mu, &active) else {
             mu *= nu;
             nu *= 2.0;
             if mu > 1e20 {
@@ -533,6 +539,7 @@ pub fn levenberg_marquardt<P: Problem>(
         // (floored at 1e-3 of the largest and at the problem's step scale). This stops "parameter evaporation", where a long
         // first step lands on a plateau (an exponential saturated, F ≈ 1) that is a false
         // minimum at infinity; the damping grows until the step fits, without evaluations.
+        h.iter_mut().for_each(|v| *v *= shrink);
         let xmax = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
         let too_long =
             (0..dim).any(|i| h[i].abs() > x[i].abs().max(1e-3 * xmax).max(scale[i]).max(1e-6));
@@ -585,6 +592,21 @@ pub fn levenberg_marquardt<P: Problem>(
         let rho = if pred > 0.0 { actual / pred } else { -1.0 };
         if cn.is_finite() && actual > 0.0 && rho > 0.0 {
             let small = actual <= limits.ftol * ne.cost;
+            let reversed = last_step.as_ref().is_some_and(|l| {
+                let (dot, ll, ss) = (0..dim).fold((0.0, 0.0, 0.0), |(a, b, c), i| {
+                    (
+                        a + l[i] * step[i] * d[i],
+                        b + l[i] * l[i] * d[i],
+                        c + step[i] * step[i] * d[i],
+                    )
+                });
+                dot < -0.5 * (ll * ss).sqrt()
+            });
+            if reversed || shrink < 1.0 {
+                let slope: f64 = (0..dim).map(|i| ne.jtr[i] * step[i]).sum();
+                shrink = (shrink * step_shrink(slope, -actual)).clamp(0.1, 1.0);
+            }
+            last_step = Some(step);
             x = xn;
             ne = trial.expect("finite trial");
             mu *= (1.0f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
@@ -623,6 +645,18 @@ pub fn levenberg_marquardt<P: Problem>(
         termination,
         converged,
         normal: Some(ne),
+    }
+}
+
+/// The multiple of a step at the minimum of the parabola along it through the cost's slope
+/// `slope` at the start and its change `rise` at the full step: −slope / (2 (rise − slope)),
+/// or 1 where that parabola has no minimum.
+pub(crate) fn step_shrink(slope: f64, rise: f64) -> f64 {
+    let curvature = 2.0 * (rise - slope);
+    if slope < 0.0 && curvature > 0.0 {
+        -slope / curvature
+    } else {
+        1.0
     }
 }
 
