@@ -908,6 +908,56 @@ pub(crate) mod tests {
         }
     }
 
+    /// Dennis and Schnabel's large-residual example: r1 = x + 1, r2 = λx² + x − 1, minimum at
+    /// x = 0 (cost 1), where JᵀJ = 2 and the cost's second derivative is 2 − 2λ. With λ < 0
+    /// the Gauss–Newton step overshoots: each error is λ times the last, alternating.
+    struct LargeResidual(f64);
+
+    impl Problem for LargeResidual {
+        type Prepared = f64;
+        fn dim(&self) -> usize {
+            1
+        }
+        fn n_residuals(&self) -> usize {
+            2
+        }
+        fn prepare(&self, x: &[f64]) -> Option<f64> {
+            Some(x[0])
+        }
+        fn residual_grad(&self, x: &f64, i: usize, row: &mut [f64]) -> f64 {
+            if i == 0 {
+                row[0] = 1.0;
+                x + 1.0
+            } else {
+                row[0] = 2.0 * self.0 * x + 1.0;
+                self.0 * x * x + x - 1.0
+            }
+        }
+        fn bounds(&self) -> Vec<(f64, f64)> {
+            vec![(-10.0, 10.0)]
+        }
+    }
+
+    #[test]
+    fn an_overshooting_step_is_shrunk_to_the_minimum() {
+        // The parabola 3 (t − 0.4)²: slope −2.4 at 0, rise 0.6 at 1, minimum at 0.4.
+        assert!((step_shrink(-2.4, 0.6) - 0.4).abs() < 1e-15);
+        // No minimum ahead (rising at the start, or not curving up): the full step.
+        assert_eq!(step_shrink(1.0, 2.0), 1.0);
+        assert_eq!(step_shrink(-1.0, -2.0), 1.0);
+        // Gauss–Newton alone would halve the error each step, alternating: 20 steps or more
+        // to the default tolerance. Shrunk after the first reversal, a handful.
+        let s = levenberg_marquardt(
+            &LargeResidual(-0.5),
+            &[0.5],
+            Robust::None,
+            &Limits::default(),
+        );
+        assert!(s.converged && s.x[0].abs() < 1e-7, "{s:?}");
+        assert!((s.cost - 1.0).abs() < 1e-13, "{s:?}");
+        assert!(s.iterations <= 8, "{s:?}");
+    }
+
     /// r1 = 1 (no parameter reaches it), r2 = 10⁻³/x, x > 0: the cost ½ + ½·10⁻⁶/x² falls
     /// forever as x grows, by less than 10⁻⁶ relative in all once x ≥ 1.
     struct Plateau;
