@@ -16,6 +16,9 @@
 //!   local convergence properties for solving nonlinear equations with convex constraints",
 //!   J. Comput. Appl. Math. 172, 2004). A variable at a bound whose gradient points inward is
 //!   free, so it leaves the bound; the gain ratio is taken on the projected step.
+//!   Where the residuals are large the Gauss–Newton step can overshoot, the steps alternating
+//!   in sign at a linear rate; once two accepted steps point opposite ways, each step is scaled
+//!   by the minimum of the parabola through the last step's slope and cost change.
 //! - [`Method::GaussNewton`]: Gauss–Newton with a bounded, NaN-safe Armijo backtracking line
 //!   search (Nocedal & Wright, "Numerical Optimization", 2006, Algorithm 3.1), with the same
 //!   active set and projection as LM.
