@@ -16,6 +16,9 @@
 //!   local convergence properties for solving nonlinear equations with convex constraints",
 //!   J. Comput. Appl. Math. 172, 2004). A variable at a bound whose gradient points inward is
 //!   free, so it leaves the bound; the gain ratio is taken on the projected step.
+//!   Where the residuals are large the Gauss–Newton step can overshoot, the steps alternating
+//!   in sign at a linear rate; once two accepted steps point opposite ways, each step is scaled
+//!   by the minimum of the parabola through the last step's slope and cost change.
 //! - [`Method::GaussNewton`]: Gauss–Newton with a bounded, NaN-safe Armijo backtracking line
 //!   search (Nocedal & Wright, "Numerical Optimization", 2006, Algorithm 3.1), with the same
 //!   active set and projection as LM.
@@ -503,6 +506,12 @@ pub fn levenberg_marquardt<P: Problem>(
     let mut converged = false;
     // The cost at the start and after each accepted step (for `limits.stall`).
     let mut accepted = vec![ne.cost];
+    // Where the cost curves more than JᵀJ says along the step (a large residual), the
+    // Gauss–Newton step overshoots and the steps alternate in sign, each a fixed fraction of
+    // the last: a linear rate. Once two accepted steps point opposite ways, every step is
+    // scaled by `shrink`, the minimum of the cost along the last step (see [`step_shrink`]).
+    let mut shrink = 1.0;
+    let mut last_step: Option<Vec<f64>> = None;
     while iter < limits.max_iter {
         if evals >= limits.max_eval {
             termination = "evaluation limit reached".into();
@@ -520,7 +529,7 @@ pub fn levenberg_marquardt<P: Problem>(
         for i in 0..dim {
             d[i] = d[i].max(ne.jtj[i * dim + i]);
         }
-        let Some(h) = damped_solve(&ne.jtj, &ne.jtr, &d, mu, &active) else {
+        let Some(mut h) = damped_solve(&ne.jtj, &ne.jtr, &d, mu, &active) else {
             mu *= nu;
             nu *= 2.0;
             if mu > 1e20 {
@@ -533,6 +542,7 @@ pub fn levenberg_marquardt<P: Problem>(
         // (floored at 1e-3 of the largest and at the problem's step scale). This stops "parameter evaporation", where a long
         // first step lands on a plateau (an exponential saturated, F ≈ 1) that is a false
         // minimum at infinity; the damping grows until the step fits, without evaluations.
+        h.iter_mut().for_each(|v| *v *= shrink);
         let xmax = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
         let too_long =
             (0..dim).any(|i| h[i].abs() > x[i].abs().max(1e-3 * xmax).max(scale[i]).max(1e-6));
@@ -585,6 +595,21 @@ pub fn levenberg_marquardt<P: Problem>(
         let rho = if pred > 0.0 { actual / pred } else { -1.0 };
         if cn.is_finite() && actual > 0.0 && rho > 0.0 {
             let small = actual <= limits.ftol * ne.cost;
+            let reversed = last_step.as_ref().is_some_and(|l| {
+                let (dot, ll, ss) = (0..dim).fold((0.0, 0.0, 0.0), |(a, b, c), i| {
+                    (
+                        a + l[i] * step[i] * d[i],
+                        b + l[i] * l[i] * d[i],
+                        c + step[i] * step[i] * d[i],
+                    )
+                });
+                dot < -0.5 * (ll * ss).sqrt()
+            });
+            if reversed || shrink < 1.0 {
+                let slope: f64 = (0..dim).map(|i| ne.jtr[i] * step[i]).sum();
+                shrink = (shrink * step_shrink(slope, -actual)).clamp(0.1, 1.0);
+            }
+            last_step = Some(step);
             x = xn;
             ne = trial.expect("finite trial");
             mu *= (1.0f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
@@ -623,6 +648,18 @@ pub fn levenberg_marquardt<P: Problem>(
         termination,
         converged,
         normal: Some(ne),
+    }
+}
+
+/// The multiple of a step at the minimum of the parabola along it through the cost's slope
+/// `slope` at the start and its change `rise` at the full step: −slope / (2 (rise − slope)),
+/// or 1 where that parabola has no minimum.
+pub(crate) fn step_shrink(slope: f64, rise: f64) -> f64 {
+    let curvature = 2.0 * (rise - slope);
+    if slope < 0.0 && curvature > 0.0 {
+        -slope / curvature
+    } else {
+        1.0
     }
 }
 
@@ -872,6 +909,56 @@ pub(crate) mod tests {
             // Iterations are steps tried, each evaluated once (LM counted damping-only passes).
             assert!(s.iterations < s.evaluations, "{m:?}: {s:?}");
         }
+    }
+
+    /// Dennis and Schnabel's large-residual example: r1 = x + 1, r2 = λx² + x − 1, minimum at
+    /// x = 0 (cost 1), where JᵀJ = 2 and the cost's second derivative is 2 − 2λ. With λ < 0
+    /// the Gauss–Newton step overshoots: each error is λ times the last, alternating.
+    struct LargeResidual(f64);
+
+    impl Problem for LargeResidual {
+        type Prepared = f64;
+        fn dim(&self) -> usize {
+            1
+        }
+        fn n_residuals(&self) -> usize {
+            2
+        }
+        fn prepare(&self, x: &[f64]) -> Option<f64> {
+            Some(x[0])
+        }
+        fn residual_grad(&self, x: &f64, i: usize, row: &mut [f64]) -> f64 {
+            if i == 0 {
+                row[0] = 1.0;
+                x + 1.0
+            } else {
+                row[0] = 2.0 * self.0 * x + 1.0;
+                self.0 * x * x + x - 1.0
+            }
+        }
+        fn bounds(&self) -> Vec<(f64, f64)> {
+            vec![(-10.0, 10.0)]
+        }
+    }
+
+    #[test]
+    fn an_overshooting_step_is_shrunk_to_the_minimum() {
+        // The parabola 3 (t − 0.4)²: slope −2.4 at 0, rise 0.6 at 1, minimum at 0.4.
+        assert!((step_shrink(-2.4, 0.6) - 0.4).abs() < 1e-15);
+        // No minimum ahead (rising at the start, or not curving up): the full step.
+        assert_eq!(step_shrink(1.0, 2.0), 1.0);
+        assert_eq!(step_shrink(-1.0, -2.0), 1.0);
+        // Gauss–Newton alone would halve the error each step, alternating: 20 steps or more
+        // to the default tolerance. Shrunk after the first reversal, a handful.
+        let s = levenberg_marquardt(
+            &LargeResidual(-0.5),
+            &[0.5],
+            Robust::None,
+            &Limits::default(),
+        );
+        assert!(s.converged && s.x[0].abs() < 1e-7, "{s:?}");
+        assert!((s.cost - 1.0).abs() < 1e-13, "{s:?}");
+        assert!(s.iterations <= 8, "{s:?}");
     }
 
     /// r1 = 1 (no parameter reaches it), r2 = 10⁻³/x, x > 0: the cost ½ + ½·10⁻⁶/x² falls
