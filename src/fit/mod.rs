@@ -623,7 +623,7 @@ pub fn fit_models(
         });
         // A geometry only one entry uses is moved into its fit, not copied (a million rows:
         // 56 MB copied and faulted in for nothing).
-        let alone: Vec<std::sync::Mutex<Option<Vec<(ChannelRows, f64)>>>> = opts
+        let alone: Vec<std::sync::Mutex<Option<ChannelGeometries>>> = opts
             .iter()
             .map(|o| {
                 let users = opts.iter().filter(|p| key(p) == key(o)).count();
@@ -684,6 +684,9 @@ pub fn fit_models(
     let fits = runs.into_iter().map(median_times).collect();
     Ok((fits, walls[walls.len() / 2]))
 }
+
+/// Each channel's rows and the seconds of their geometry pass.
+type ChannelGeometries = Vec<(ChannelRows, f64)>;
 
 /// One entry's fits of [`fit_models`], or its error.
 type FitsOrError = Result<Vec<FitResult>, FitError>;
