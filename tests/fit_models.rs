@@ -33,7 +33,8 @@ fn all_models() -> Vec<FitOptions> {
 #[test]
 fn every_model_at_once_equals_one_at_a_time() {
     // Three channels (RGB), so the shared geometry is per channel; and one loss apart (the
-    // linear loss), so two geometries are shared.
+    // linear loss), so two geometries are computed: one shared (copied into each fit), one
+    // used by the linear entry alone (moved into its fit).
     let ds = load("tests/data/vch_golden_yellow_rgb.csv");
     let mut opts = all_models();
     let mut linear = opts[3].clone();

@@ -607,15 +607,35 @@ pub fn fit_models(
     for _ in 0..repeat.max(1) {
         let t = Instant::now();
         // Each distinct geometry once per channel: (its key, each channel's rows and time).
-        let mut shared: Vec<(_, Vec<(ChannelRows, f64)>)> = Vec::new();
-        for o in opts {
-            if !shared.iter().any(|(k, _)| *k == key(o)) {
-                let rows = (0..ds.channels.len())
-                    .map(|c| timed_rows(ds, c, o))
-                    .collect();
-                shared.push((key(o), rows));
+        // On a thread of rayon's pool, as in [`fit`]: each parallel stage of the geometry
+        // pass then wakes the other core only, not this thread as well.
+        let mut shared: Vec<(_, Vec<(ChannelRows, f64)>)> = rayon::scope(|_| {
+            let mut shared: Vec<(_, Vec<(ChannelRows, f64)>)> = Vec::new();
+            for o in opts {
+                if !shared.iter().any(|(k, _)| *k == key(o)) {
+                    let rows = (0..ds.channels.len())
+                        .map(|c| timed_rows(ds, c, o))
+                        .collect();
+                    shared.push((key(o), rows));
+                }
             }
-        }
+            shared
+        });
+        // A geometry only one entry uses is moved into its fit, not copied (a million rows:
+        // 56 MB copied and faulted in for nothing).
+        let alone: Vec<std::sync::Mutex<Option<ChannelGeometries>>> = opts
+            .iter()
+            .map(|o| {
+                let users = opts.iter().filter(|p| key(p) == key(o)).count();
+                let rows = (users == 1).then(|| {
+                    let at = shared.iter().position(|(k, _)| *k == key(o));
+                    shared
+                        .swap_remove(at.expect("every geometry computed above"))
+                        .1
+                });
+                std::sync::Mutex::new(rows)
+            })
+            .collect();
         // Longest first, each model taken by the next free thread as it finishes one (a
         // FIFO scope: the calling thread runs the first, a thief takes the oldest left), so
         // no core idles at the end behind the dearest fit.
@@ -625,13 +645,24 @@ pub fn fit_models(
             opts.iter().map(|_| std::sync::Mutex::new(None)).collect();
         rayon::scope_fifo(|s| {
             for &i in &order {
-                let (o, slot, shared) = (&opts[i], &slots[i], &shared);
+                let (o, slot, shared, alone) = (&opts[i], &slots[i], &shared, &alone[i]);
                 s.spawn_fifo(move |_| {
-                    let (_, rows) = shared
-                        .iter()
-                        .find(|(k, _)| *k == key(o))
-                        .expect("every geometry computed above");
-                    let f = fit_with(ds, o, |c| rows[c].clone());
+                    let own = alone.lock().expect("no fit panics").take();
+                    let f = match own {
+                        Some(rows) => {
+                            // Each channel's rows are asked for once.
+                            let rows: Vec<std::cell::Cell<Option<(ChannelRows, f64)>>> =
+                                rows.into_iter().map(|r| Some(r).into()).collect();
+                            fit_with(ds, o, |c| rows[c].take().expect("each channel taken once"))
+                        }
+                        None => {
+                            let (_, rows) = shared
+                                .iter()
+                                .find(|(k, _)| *k == key(o))
+                                .expect("every geometry computed above");
+                            fit_with(ds, o, |c| rows[c].clone())
+                        }
+                    };
                     *slot.lock().expect("no fit panics") = Some(f);
                 });
             }
@@ -653,6 +684,9 @@ pub fn fit_models(
     let fits = runs.into_iter().map(median_times).collect();
     Ok((fits, walls[walls.len() / 2]))
 }
+
+/// Each channel's rows and the seconds of their geometry pass.
+type ChannelGeometries = Vec<(ChannelRows, f64)>;
 
 /// One entry's fits of [`fit_models`], or its error.
 type FitsOrError = Result<Vec<FitResult>, FitError>;
