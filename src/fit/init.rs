@@ -194,28 +194,36 @@ pub(super) struct TwoLobeGram {
 impl TwoLobeGram {
     fn new(tables: &LobeTables, alphas: &[f64], ns: &[f64], w: &[f64], wf: &[f64]) -> Option<Self> {
         use nalgebra::{DMatrix, DVector};
+        use rayon::prelude::*;
         let (m, na) = (tables.m, alphas.len());
         let lobes: Vec<&[f64]> = alphas
             .iter()
             .map(|&a| tables.lobe(a))
             .collect::<Option<_>>()?;
         let lm = DMatrix::from_fn(na, m, |a, r| lobes[a][r]);
+        // Each n's products on their own (in parallel: the same values on any number of
+        // threads).
+        let per_n: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> = ns
+            .par_iter()
+            .map(|&n| {
+                let f = tables.fresnel(n)?;
+                let lu = DMatrix::from_fn(na, m, |a, r| lm[(a, r)] * w[r] * f[r] * f[r]);
+                let g = lu * lm.transpose();
+                let ll = (0..na * na).map(|k| g[(k / na, k % na)]).collect();
+                let l = (&lm * DVector::from_fn(m, |r, _| w[r] * f[r]))
+                    .as_slice()
+                    .to_vec();
+                let h = (&lm * DVector::from_fn(m, |r, _| wf[r] * f[r]))
+                    .as_slice()
+                    .to_vec();
+                Some((ll, l, h))
+            })
+            .collect::<Option<_>>()?;
         let (mut ll, mut l, mut h) = (Vec::new(), Vec::new(), Vec::new());
-        for &n in ns {
-            let f = tables.fresnel(n)?;
-            let lu = DMatrix::from_fn(na, m, |a, r| lm[(a, r)] * w[r] * f[r] * f[r]);
-            let g = lu * lm.transpose();
-            ll.push((0..na * na).map(|k| g[(k / na, k % na)]).collect());
-            l.push(
-                (&lm * DVector::from_fn(m, |r, _| w[r] * f[r]))
-                    .as_slice()
-                    .to_vec(),
-            );
-            h.push(
-                (&lm * DVector::from_fn(m, |r, _| wf[r] * f[r]))
-                    .as_slice()
-                    .to_vec(),
-            );
+        for (a, b, c) in per_n {
+            ll.push(a);
+            l.push(b);
+            h.push(c);
         }
         let (w1, f1) = (w.iter().sum(), wf.iter().sum());
         Some(TwoLobeGram {
@@ -791,6 +799,7 @@ pub(super) fn global_init(
     opts: &FitOptions,
 ) -> Vec<Vec<f64>> {
     let p = full.subsample(INIT_ROWS);
+
     let nfree = p.transforms.len();
     let kind = opts.kind;
     let model_specs = kind.params(opts.dist);
@@ -826,7 +835,7 @@ pub(super) fn global_init(
     .then(|| {
         // The shape grid points, row-major as in `points` (n is the slowest axis).
         let per_n = points.len() / nonlinear[0].1.len();
-        let cs: Vec<Vec<f64>> = points[..per_n].iter().map(|pt| pt[1..].to_vec()).collect();
+        let cs: Vec<Vec<f64>> = (0..per_n).map(|i| points.get(i)[1..].to_vec()).collect();
         let f = TsFactors::new(&p.rows, opts.dist, &nonlinear[0].1, &cs);
         let table = f.grid_sums(&wdata, &wf);
         (f, table)
@@ -871,7 +880,7 @@ pub(super) fn global_init(
     });
     let (ones, zeros) = (vec![1.0; p.rows.len()], vec![0.0; p.rows.len()]);
     let score_point = |index: usize, steps: usize| {
-        let pt = &points[index];
+        let pt = points.get(index);
         // Natural values of all free variables at this grid point (linear ones solved).
         let mut theta = vec![f64::NAN; nfree];
         let mut score = 0.0;
@@ -1144,7 +1153,7 @@ fn two_lobe_prescreen(
     ips: &[usize],
     ipd: usize,
     dims: &[usize],
-    ordered: impl Fn(usize) -> bool,
+    ordered: impl Fn(usize) -> bool + Sync,
 ) -> Vec<bool> {
     let (held, free) = linear_coefficients(slots, ips, ipd);
     let lin = two_lobe_linearised(t, &held, &free, dims, &ordered);
@@ -1166,12 +1175,15 @@ fn two_lobe_linearised(
     held: &[f64],
     free: &[bool],
     dims: &[usize],
-    ordered: impl Fn(usize) -> bool,
+    ordered: impl Fn(usize) -> bool + Sync,
 ) -> Vec<f64> {
     let k = held.len();
     let (d1, d2) = (dims[1] * dims[2], dims[2]);
     let total: usize = dims.iter().product();
+    // The points in parallel (each value is the same on any number of threads).
+    use rayon::prelude::*;
     (0..total)
+        .into_par_iter()
         .map(|i| {
             if !ordered(i) {
                 return f64::INFINITY;
@@ -1243,24 +1255,45 @@ pub(super) fn grid_points(specs: &[&ParamSpec], nfree: usize) -> GridPoints {
         *g = g.iter().step_by(2).copied().collect();
     }
     let dims: Vec<usize> = nonlinear.iter().map(|(_, g)| g.len()).collect();
-    let mut points: Vec<Vec<f64>> = vec![vec![]];
-    for (_, g) in &nonlinear {
-        points = points
-            .iter()
-            .flat_map(|pt| {
-                g.iter().map(move |v| {
-                    let mut q = pt.clone();
-                    q.push(*v);
-                    q
-                })
-            })
-            .collect();
+    let width = nonlinear.len();
+    let total: usize = dims.iter().product();
+    let mut values = Vec::with_capacity(total * width);
+    for i in 0..total {
+        // Row-major: the last variable varies fastest.
+        let mut rest = i;
+        let start = values.len();
+        values.resize(start + width, 0.0);
+        for (d, (_, g)) in nonlinear.iter().enumerate().rev() {
+            values[start + d] = g[rest % dims[d]];
+            rest /= dims[d];
+        }
     }
-    (nonlinear, dims, points)
+    (nonlinear, dims, Points { width, values })
+}
+
+/// The points of a grid, row-major, in one buffer (a grid of up to [`GRID_LIMIT`] points
+/// allocates once, not once per point).
+pub(super) struct Points {
+    /// Values per point.
+    width: usize,
+    /// Every point's values, point after point.
+    values: Vec<f64>,
+}
+
+impl Points {
+    /// The number of points.
+    pub(super) fn len(&self) -> usize {
+        self.values.len().checked_div(self.width).unwrap_or(1)
+    }
+
+    /// Point `i`'s values.
+    pub(super) fn get(&self, i: usize) -> &[f64] {
+        &self.values[i * self.width..(i + 1) * self.width]
+    }
 }
 
 /// Gridded variables with their values, the grid sizes, and the grid points.
-pub(super) type GridPoints = (Vec<(usize, Vec<f64>)>, Vec<usize>, Vec<Vec<f64>>);
+pub(super) type GridPoints = (Vec<(usize, Vec<f64>)>, Vec<usize>, Points);
 
 /// Per row, the data f_r and the weight that linearises the loss around it (parameter-free):
 /// for the log loss r ≈ cosθi Δf / (1 + cosθi f), so w = (cosθi / (1 + cosθi f))².
@@ -1670,9 +1703,14 @@ mod tests {
     fn two_shapes_and_an_index_keep_the_whole_grid() {
         let specs = ModelKind::TorranceSparrow.params(Distribution::D3);
         let (n, c3) = (&specs[0], &specs[1]);
-        let (_, dims, points) = grid_points(&[c3, c3, n], 3);
+        let (grids, dims, points) = grid_points(&[c3, c3, n], 3);
         assert_eq!(dims, vec![19, 19, 17]);
         assert_eq!(points.len(), 19 * 19 * 17);
+        // Row-major, the last variable fastest: point 1 · 17 + 2 is (c3₀, c3₁, n₂), the
+        // last point every grid's last value.
+        let (g0, g2) = (&grids[0].1, &grids[2].1);
+        assert_eq!(points.get(17 + 2), &[g0[0], g0[1], g2[2]]);
+        assert_eq!(points.get(19 * 19 * 17 - 1), &[g0[18], g0[18], g2[16]]);
         let (_, dims, points) = grid_points(&[c3, c3, c3, n], 4);
         assert_eq!(dims, vec![5, 10, 10, 9]);
         assert_eq!(points.len(), 4500);

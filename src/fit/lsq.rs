@@ -364,7 +364,9 @@ pub fn normal_equations<P: Problem>(p: &P, x: &[f64], robust: Robust) -> Option<
 }
 
 /// Solve (A + μ diag(D)) h = −g by Cholesky with Jacobi scaling on the variables not in the
-/// active set (whose step is 0); `None` if not positive definite.
+/// active set (whose step is 0); `None` if not positive definite. The factorisation is
+/// Cholesky–Banachiewicz in one buffer (Golub & Van Loan, Matrix Computations, 4th ed.,
+/// Algorithm 4.2.1), the matrices being a few parameters wide.
 pub(crate) fn damped_solve(
     a: &[f64],
     g: &[f64],
@@ -374,25 +376,51 @@ pub(crate) fn damped_solve(
 ) -> Option<Vec<f64>> {
     let n = g.len();
     // Scale by s_i = 1/√d_i so the scaled matrix has a unit-ish diagonal: better conditioned.
-    let s: Vec<f64> = d.iter().map(|v| 1.0 / v.sqrt()).collect();
-    let mut m = nalgebra::DMatrix::<f64>::zeros(n, n);
+    let mut h: Vec<f64> = d.iter().map(|v| 1.0 / v.sqrt()).collect();
+    let s = h.clone();
+    // The scaled, damped matrix, then its factor L in place (lower triangle, row-major).
+    let mut l = vec![0.0; n * n];
     for i in 0..n {
-        for j in 0..n {
-            m[(i, j)] = if active[i] || active[j] {
+        for j in 0..=i {
+            let mut v = if active[i] || active[j] {
                 if i == j { 1.0 } else { 0.0 }
             } else {
                 a[i * n + j] * s[i] * s[j]
             };
+            if i == j {
+                v += mu;
+            }
+            for k in 0..j {
+                v -= l[i * n + k] * l[j * n + k];
+            }
+            l[i * n + j] = if i == j {
+                if !(v > 0.0) {
+                    return None;
+                }
+                v.sqrt()
+            } else {
+                v / l[j * n + j]
+            };
         }
-        m[(i, i)] += mu;
     }
-    let rhs = nalgebra::DVector::from_iterator(
-        n,
-        (0..n).map(|i| if active[i] { 0.0 } else { -g[i] * s[i] }),
-    );
-    let chol = m.cholesky()?;
-    let y = chol.solve(&rhs);
-    let h: Vec<f64> = (0..n).map(|i| y[i] * s[i]).collect();
+    // L y = rhs, then Lᵀ z = y, in place in `h`; the step is s ∘ z.
+    for i in 0..n {
+        let mut v = if active[i] { 0.0 } else { -g[i] * s[i] };
+        for k in 0..i {
+            v -= l[i * n + k] * h[k];
+        }
+        h[i] = v / l[i * n + i];
+    }
+    for i in (0..n).rev() {
+        let mut v = h[i];
+        for k in i + 1..n {
+            v -= l[k * n + i] * h[k];
+        }
+        h[i] = v / l[i * n + i];
+    }
+    for (v, si) in h.iter_mut().zip(&s) {
+        *v *= si;
+    }
     h.iter().all(|v| v.is_finite()).then_some(h)
 }
 

@@ -49,13 +49,12 @@ pub(super) fn uncertainty(
         } else if quadratic.is_some() {
             quadratic
         } else {
-            profile_range(
-                prof.get_or_init(|| full.subsample(PROFILE_ROWS)),
-                &sol.x,
-                k,
-                du,
-                opts,
-            )
+            let (q, centre) = prof.get_or_init(|| {
+                let q = full.subsample(PROFILE_ROWS);
+                let centre = profile_centre(&q, &sol.x, opts);
+                (q, centre)
+            });
+            profile_range(q, &sol.x, Some(centre), k, du, opts)
         }
     };
     let all_ranges: Vec<Option<(f64, f64)>> = {
@@ -261,6 +260,20 @@ const PROFILE_FTOL: f64 = 1e-6;
 /// Rows per channel of the subsample a range is profiled on.
 const PROFILE_ROWS: usize = 1000;
 
+/// The subsample's own minimum, refitted from the fit's optimum `x` (with the profiles'
+/// tolerance), or `x` where that refit ends no lower: where the profiled cost bottoms out
+/// (see [`crossing`]'s `vertex`).
+pub(super) fn profile_centre(p: &BrdfProblem, x: &[f64], opts: &FitOptions) -> Vec<f64> {
+    let limits = Limits {
+        max_iter: 40,
+        ftol: PROFILE_FTOL,
+        ..opts.limits
+    };
+    let c = lsq::cost(p, x, Robust::None).unwrap_or(f64::INFINITY);
+    let s = lsq::levenberg_marquardt(p, x, Robust::None, &limits);
+    if s.cost < c { s.x } else { x.to_vec() }
+}
+
 /// Profile a free variable on problem `p`: hold it at probed values, refit the rest, and
 /// return the range of values whose cost is within 1 % of the minimum. The bounds are the
 /// nearest probed values that do *not* fit, so the range contains every value that does; an
@@ -272,6 +285,7 @@ const PROFILE_ROWS: usize = 1000;
 pub(super) fn profile_range(
     p: &BrdfProblem,
     x: &[f64],
+    centre: Option<&[f64]>,
     k: usize,
     du: f64,
     opts: &FitOptions,
@@ -302,15 +316,41 @@ pub(super) fn profile_range(
         q.transforms.remove(k);
         q
     };
-    let c0 = lsq::cost(p, x, Robust::None)?;
+    // Where the others go as variable k moves, to first order: the Gauss–Newton model of the
+    // cost, ½ δᵀHδ with H = JᵀJ at the optimum, minimised over the others with δ_k held,
+    // gives δ_rest = −H_rr⁻¹ H_rk δ_k. Each refit starts from its warm point moved along it
+    // (fewer iterations; the refit, not the prediction, decides the cost). Zero where H is
+    // not positive definite in the others.
+    let ne = lsq::normal_equations(p, x, Robust::None)?;
+    let c0 = ne.cost;
     let limit = 1.01 * c0;
     let mut rest = x.to_vec();
     rest.remove(k);
+    let dim = x.len();
+    let others: Vec<usize> = (0..dim).filter(|&j| j != k).collect();
+    let h_rr: Vec<f64> = others
+        .iter()
+        .flat_map(|&i| others.iter().map(move |&j| (i, j)))
+        .map(|(i, j)| ne.jtj[i * dim + j])
+        .collect();
+    let h_rk: Vec<f64> = others.iter().map(|&i| ne.jtj[i * dim + k]).collect();
+    let diag: Vec<f64> = others
+        .iter()
+        .map(|&i| ne.jtj[i * dim + i].max(1e-300))
+        .collect();
+    let slope = lsq::damped_solve(&h_rr, &h_rk, &diag, 0.0, &vec![false; others.len()])
+        .unwrap_or_else(|| vec![0.0; others.len()]);
+    let predicted = |u: f64, from: f64, warm: &[f64]| -> Vec<f64> {
+        warm.iter()
+            .zip(&slope)
+            .map(|(w, s)| w + s * (u - from))
+            .collect()
+    };
     // Cost with variable k held at u, the rest refitted from `warm`, and where they ended. A
     // refit above the limit is made again from the optimum, and the lower kept: a warm start
     // from a distant probe can stall (40 iterations) where the optimum's values do not, and
     // a value is called failing only when neither start fits.
-    let held = |u: f64, warm: &[f64]| -> (f64, Vec<f64>) {
+    let held = |u: f64, from: f64, warm: &[f64]| -> (f64, Vec<f64>) {
         let q = held_problem(u);
         let refit = |from: &[f64]| {
             let s = lsq::levenberg_marquardt(&q, from, Robust::None, &limits);
@@ -321,16 +361,23 @@ pub(super) fn profile_range(
             };
             (c, s.x)
         };
-        let first = refit(warm);
+        let first = refit(&predicted(u, from, warm));
         if first.0 <= limit || warm == rest.as_slice() {
             return first;
         }
-        let cold = refit(&rest);
+        let cold = refit(&predicted(u, x[k], &rest));
         if cold.0 < first.0 { cold } else { first }
     };
+    // The subsample's own minimum, where the profiled cost bottoms out: the walk's steps are
+    // placed from it.
+    let (uc, cc) = centre
+        .and_then(|c| Some((c[k], lsq::cost(p, c, Robust::None)?)))
+        .filter(|&(_, cc)| cc < c0)
+        .unwrap_or((x[k], c0));
     let side = |dir: f64| {
         let edge = if dir > 0.0 { uhi } else { ulo };
-        crossing(&held, x[k], &rest, c0, limit, dir, du, edge).0
+        let vertex = ((uc - x[k]) * dir, cc);
+        crossing(&held, x[k], &rest, c0, limit, dir, du, edge, vertex).0
     };
     let (lo, hi) = rayon::join(|| side(-1.0), || side(1.0));
     let lo = lo.map_or(f64::NEG_INFINITY, |u| t.apply(u).0);
@@ -345,19 +392,23 @@ const MAX_PROBES: usize = 60;
 /// One side of a profile: from the minimum `u0` (cost `c0`) in direction `dir` (±1), the
 /// nearest probed value whose profiled cost exceeds `limit`, or `None` when `edge` itself
 /// does not exceed it (the range is open on that side); with the number of probes. `held(u,
-/// warm)` is the profiled cost at u, refitted from `warm`, and where the other variables end.
+/// v, warm)` is the profiled cost at u, refitted from `warm` (where the other variables ended
+/// at the value v probed before), and where the other variables end.
 ///
 /// The walk starts at the predicted distance `du` (the quadratic model's, 0.05 where it is
-/// not finite or not positive); while a probe fits, the next goes where c(d) = c0 + a d²
-/// through it reaches the limit (1 % beyond, at least 1.1× and at most 10× the distance).
-/// The bracket (last fitting distance, first failing one) then closes by interpolation in d²
-/// (exact for a quadratic profile), nudged by a quarter of the tolerance towards the side the
+/// not finite or not positive); while a probe fits, the next goes where c(d) = cv + a (d −
+/// dv)² through it reaches the limit (1 % beyond, at least 1.1× and at most 10× the
+/// distance), (dv, cv) = `vertex` being where the profiled cost bottoms out: (0, c0) when the
+/// walk starts at the minimum, else (a subsample's profile measured from the full data's
+/// optimum) its own minimum's distance along `dir` and cost, for a profile that first dips
+/// below c0 rises from there, not from c0. The bracket (last fitting distance, first failing
+/// one) then closes by interpolation in (d − dv)² (exact for a quadratic profile), nudged by a quarter of the tolerance towards the side the
 /// last probe did not land on, with a bisection after three probes in a row on one side,
 /// until it is at most 1 % of the distance wide (or 1e-9): the end returned is then within
 /// that of the true crossing, from outside.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn crossing(
-    held: &impl Fn(f64, &[f64]) -> (f64, Vec<f64>),
+    held: &impl Fn(f64, f64, &[f64]) -> (f64, Vec<f64>),
     u0: f64,
     warm0: &[f64],
     c0: f64,
@@ -365,7 +416,9 @@ pub(super) fn crossing(
     dir: f64,
     du: f64,
     edge: f64,
+    vertex: (f64, f64),
 ) -> (Option<f64>, usize) {
+    let (dv, cv) = vertex;
     let reach = (edge - u0).abs();
     let at = |d: f64| if d >= reach { edge } else { u0 + dir * d };
     let mut probes = 0;
@@ -374,7 +427,7 @@ pub(super) fn crossing(
     let mut d = if du.is_finite() && du > 0.0 { du } else { 0.05 };
     let (mut b, mut cb, mut wb) = loop {
         d = d.min(reach);
-        let (c, w) = held(at(d), &wa);
+        let (c, w) = held(at(d), at(a), &wa);
         probes += 1;
         if !(c <= limit) {
             break (d, c, w);
@@ -382,9 +435,9 @@ pub(super) fn crossing(
         if d >= reach || probes >= MAX_PROBES {
             return (None, probes);
         }
-        let rise = c - c0;
-        let next = if rise > 0.0 {
-            1.01 * d * ((limit - c0) / rise).sqrt()
+        let rise = c - cv;
+        let next = if rise > 0.0 && d > dv {
+            dv + 1.01 * (d - dv) * ((limit - cv) / rise).sqrt()
         } else {
             f64::INFINITY
         };
@@ -399,10 +452,12 @@ pub(super) fn crossing(
         if width <= tol {
             break;
         }
-        let (sa, sb) = (a * a, b * b);
+        // (Before the vertex the profile is not monotone in (d − dv)²: in d² then.)
+        let v = if a > dv { dv } else { 0.0 };
+        let (sa, sb) = ((a - v) * (a - v), (b - v) * (b - v));
         // (A failing end whose refit has no finite cost gives no slope: bisect.)
         let r = if cb.is_finite() {
-            (sa + (limit - ca) * (sb - sa) / (cb - ca)).sqrt()
+            v + (sa + (limit - ca) * (sb - sa) / (cb - ca)).sqrt()
         } else {
             f64::NAN
         };
@@ -416,12 +471,12 @@ pub(super) fn crossing(
             (r + q).clamp(a + q, b - q)
         };
         // Warm from the nearer end (the failing end only if its refit is finite).
-        let warm = if m - a <= b - m || !cb.is_finite() {
-            &wa
+        let (from, warm) = if m - a <= b - m || !cb.is_finite() {
+            (a, &wa)
         } else {
-            &wb
+            (b, &wb)
         };
-        let (c, w) = held(at(m), warm);
+        let (c, w) = held(at(m), at(from), warm);
         probes += 1;
         let side = if c <= limit {
             (a, ca, wa) = (m, c, w);
@@ -441,8 +496,8 @@ mod tests {
     use super::*;
 
     /// A profiled cost given as a function (no refit: `warm` is passed through).
-    fn probe(f: impl Fn(f64) -> f64) -> impl Fn(f64, &[f64]) -> (f64, Vec<f64>) {
-        move |u, w| (f(u), w.to_vec())
+    fn probe(f: impl Fn(f64) -> f64) -> impl Fn(f64, f64, &[f64]) -> (f64, Vec<f64>) {
+        move |u, _, w| (f(u), w.to_vec())
     }
 
     /// A quadratic profile c(u) = c0 (1 + (u − u0)²/s²) rises by 1 % at u0 ± s/10 exactly:
@@ -461,13 +516,13 @@ mod tests {
             (f64::NAN, 12),
         ] {
             for dir in [-1.0, 1.0] {
-                let (u, n) = crossing(&f, u0, &[], c0, 1.01 * c0, dir, du, dir * 50.0);
+                let (u, n) = crossing(&f, u0, &[], c0, 1.01 * c0, dir, du, dir * 50.0, (0.0, c0));
                 let d = (u.expect("a closed side") - u0) * dir;
                 assert!(
                     d >= exact * (1.0 - 1e-12) && d <= exact * 1.0101,
                     "du {du} dir {dir}: {d} vs {exact}"
                 );
-                assert!(f(u0 + dir * d, &[]).0 > 1.01 * c0);
+                assert!(f(u0 + dir * d, u0, &[]).0 > 1.01 * c0);
                 assert!(n <= most, "du {du} dir {dir}: {n} probes");
             }
         }
@@ -490,8 +545,8 @@ mod tests {
         };
         let (up, down) = (root(0.2), root(-0.2));
         assert!((up - 0.138_165).abs() < 1e-6 && (down + 0.144_835).abs() < 1e-6);
-        let (hi, _) = crossing(&f, u0, &[], c0, 1.01 * c0, 1.0, 0.05, 10.0);
-        let (lo, _) = crossing(&f, u0, &[], c0, 1.01 * c0, -1.0, 0.05, -10.0);
+        let (hi, _) = crossing(&f, u0, &[], c0, 1.01 * c0, 1.0, 0.05, 10.0, (0.0, c0));
+        let (lo, _) = crossing(&f, u0, &[], c0, 1.01 * c0, -1.0, 0.05, -10.0, (0.0, c0));
         let (hi, lo) = (hi.unwrap() - u0, lo.unwrap() - u0);
         assert!(hi >= up * (1.0 - 1e-9) && hi <= up * 1.0101, "{hi} vs {up}");
         assert!(
@@ -499,9 +554,51 @@ mod tests {
             "{lo} vs {down}"
         );
         // The edge at u0 + 0.1 lies inside the range: open.
-        let (open, n) = crossing(&f, u0, &[], c0, 1.01 * c0, 1.0, 0.05, u0 + 0.1);
+        let (open, n) = crossing(&f, u0, &[], c0, 1.01 * c0, 1.0, 0.05, u0 + 0.1, (0.0, c0));
         assert_eq!(open, None);
         assert!(n <= 2, "{n}");
+    }
+
+    /// A profile measured from off its minimum (a subsample's, from the full data's optimum):
+    /// c(u) = 3 (1 + (u − 0.7)²/0.16) from u0 = 0.72, c0 = c(u0) = 3.0075, limit 1.01 c0 =
+    /// 3.037575, crosses where (u − 0.7)² = 0.16 (limit/3 − 1) = 0.002004, |u − 0.7| =
+    /// 0.0447660: 0.0247660 above u0 and 0.0647660 below. From a first step of 0.03 each side
+    /// ends within 1 % outside the crossing; told the vertex (its distance along each side and
+    /// its cost 3), the walk needs at most 4 probes a side and fewer in all than from c0 alone,
+    /// whose first probe below (cost under c0) shows no rise and steps tenfold out.
+    #[test]
+    fn a_profile_off_its_minimum_crosses_where_worked_by_hand() {
+        let (uv, cv, u0) = (0.7, 3.0, 0.72);
+        let c = move |u: f64| cv * (1.0 + (u - uv).powi(2) / 0.16);
+        let f = probe(c);
+        let c0 = c(u0);
+        assert!((c0 - 3.0075).abs() < 1e-12);
+        let half = (0.16f64 * (1.01 * c0 / cv - 1.0)).sqrt();
+        assert!((half - 0.044_766).abs() < 1e-6);
+        let mut with = 0;
+        let mut without = 0;
+        for dir in [1.0, -1.0] {
+            let exact = (uv + dir * half - u0) * dir;
+            for (vertex, count) in [
+                (((uv - u0) * dir, cv), &mut with),
+                ((0.0, c0), &mut without),
+            ] {
+                let (u, n) = crossing(&f, u0, &[], c0, 1.01 * c0, dir, 0.03, dir * 50.0, vertex);
+                let d = (u.expect("a crossing") - u0) * dir;
+                assert!(
+                    d >= exact * (1.0 - 1e-9) && d <= 1.0101 * exact,
+                    "{dir} {vertex:?}: {d}"
+                );
+                *count += n;
+                if vertex.1 == cv {
+                    assert!(n <= 4, "{dir}: {n} probes");
+                }
+            }
+        }
+        assert!(
+            with < without,
+            "{with} probes with the vertex, {without} without"
+        );
     }
 
     /// Profiling on a real problem: Lambert's f_r = pd/π with the linear loss has the cost
@@ -527,7 +624,7 @@ mod tests {
         let delta = pi * 0.0125f64.sqrt();
         assert!((delta - 0.351_240).abs() < 1e-6);
         for du in [delta, 0.05, f64::NAN] {
-            let (lo, hi) = profile_range(&p, &x, 0, du, &opts).expect("a finite cost");
+            let (lo, hi) = profile_range(&p, &x, None, 0, du, &opts).expect("a finite cost");
             // (An end may be the crossing itself, whose cost rounds above the limit.)
             let (dlo, dhi) = (2.5 * pi - lo, hi - 2.5 * pi);
             assert!(dlo >= delta * (1.0 - 1e-9) && dlo <= 1.0101 * delta, "{lo}");
