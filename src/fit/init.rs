@@ -595,10 +595,113 @@ pub(super) fn refine_linear(
     (c, x)
 }
 
+/// One pass of the declared loss over rows `range` for f = Σ c_j s_j with the bases `s` (for
+/// models with several specular lobes): ½ Σ r² with r = sw (ℓ(f) − target), JᵀJ (row-major)
+/// and Jᵀr of c. The log loss with two to four bases takes the lane kernel
+/// [`linear_pass_log_many`], the rest the row loop [`linear_pass_many_rows`].
+pub(super) fn linear_pass_many(
+    rows: &Rows,
+    range: std::ops::Range<usize>,
+    s: &[Basis],
+    c: &[f64],
+    loss: Loss,
+) -> (f64, Vec<f64>, Vec<f64>) {
+    if loss == Loss::Log && (2..=4).contains(&s.len()) {
+        let sw = weights(rows, range.clone());
+        return linear_pass_log_many(&rows.nl[range.clone()], &rows.target[range], sw, s, c);
+    }
+    linear_pass_many_rows(rows, range, s, c, loss)
+}
+
+/// [`linear_pass_many`] for the log loss with 2 to 4 bases, [`LANES`] rows at a time with the
+/// lane logarithm (`sw` empty = unweighted); the sums are added per lane, then in lane order.
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+pub(super) fn linear_pass_log_many(
+    nl: &[f64],
+    tg: &[f64],
+    sw: &[f64],
+    s: &[Basis],
+    c: &[f64],
+) -> (f64, Vec<f64>, Vec<f64>) {
+    match s.len() {
+        2 => linear_pass_log_many_body::<2>(nl, tg, sw, s, c),
+        3 => linear_pass_log_many_body::<3>(nl, tg, sw, s, c),
+        _ => linear_pass_log_many_body::<4>(nl, tg, sw, s, c),
+    }
+}
+
+/// The body of [`linear_pass_log_many`] for `K` bases.
+#[inline(always)]
+fn linear_pass_log_many_body<const K: usize>(
+    nl: &[f64],
+    tg: &[f64],
+    sw: &[f64],
+    s: &[Basis],
+    c: &[f64],
+) -> (f64, Vec<f64>, Vec<f64>) {
+    let m = nl.len();
+    let coef: [f64; K] = std::array::from_fn(|j| c[j]);
+    let mut cost = [0.0f64; LANES];
+    let mut gr = [[0.0f64; LANES]; K];
+    let mut g = [[[0.0f64; LANES]; K]; K];
+    let mut i = 0;
+    while i < m {
+        let len = (m - i).min(LANES);
+        // Lanes past the end repeat the last row with weight 0 (a full block: plain loads).
+        let get = |v: &[f64]| -> [f64; LANES] {
+            if len == LANES {
+                v[i..i + LANES].try_into().expect("a full block")
+            } else {
+                std::array::from_fn(|l| v[i + l.min(len - 1)])
+            }
+        };
+        let w: [f64; LANES] = std::array::from_fn(|l| match (l < len, sw.is_empty()) {
+            (false, _) => 0.0,
+            (true, true) => 1.0,
+            (true, false) => sw[i + l],
+        });
+        let sv: [[f64; LANES]; K] = std::array::from_fn(|j| {
+            let (a, b) = (get(s[j].a), get(s[j].b));
+            std::array::from_fn(|l| a[l] * b[l])
+        });
+        let (x, t) = (get(nl), get(tg));
+        let mut f = [0.0f64; LANES];
+        for j in 0..K {
+            for l in 0..LANES {
+                f[l] += coef[j] * sv[j][l];
+            }
+        }
+        let y: [f64; LANES] = std::array::from_fn(|l| x[l] * f[l]);
+        let (v, iu) = lanes::ln_1p(&y);
+        for l in 0..LANES {
+            let r = w[l] * (v[l] - t[l]);
+            let d = w[l] * x[l] * iu[l];
+            cost[l] += 0.5 * r * r;
+            for a in 0..K {
+                let ja = d * sv[a][l];
+                gr[a][l] += ja * r;
+                for b in a..K {
+                    g[a][b][l] += ja * d * sv[b][l];
+                }
+            }
+        }
+        i += LANES;
+    }
+    let sum = |v: &[f64; LANES]| v.iter().sum::<f64>();
+    let mut jtj = vec![0.0; K * K];
+    for a in 0..K {
+        for b in a..K {
+            jtj[a * K + b] = sum(&g[a][b]);
+            jtj[b * K + a] = jtj[a * K + b];
+        }
+    }
+    (sum(&cost), jtj, gr.iter().map(sum).collect())
+}
+
 /// One pass of the declared loss over rows `range` for f = Σ c_j s_j with the bases `s` (a
 /// row loop, for models with several specular lobes): ½ Σ r² with r = sw (ℓ(f) − target),
 /// JᵀJ (row-major) and Jᵀr of c.
-pub(super) fn linear_pass_many(
+pub(super) fn linear_pass_many_rows(
     rows: &Rows,
     range: std::ops::Range<usize>,
     s: &[Basis],
@@ -1190,10 +1293,11 @@ fn two_lobe_linearised(
             }
             let (g, h) = t.gram3(i / d1, (i / d2) % dims[1], i % d2);
             // Every coefficient free: the interior minimum where it is positive (most
-            // points), else the active-set solve.
+            // points), else face by face ([`nnls3`]); some held: the active-set solve.
             let interior = free.iter().all(|&f| f).then(|| positive_solve3(&g, &h));
-            let c = match interior.flatten() {
-                Some(c) => c.to_vec(),
+            let c = match interior {
+                Some(Some(c)) => c.to_vec(),
+                Some(None) => nnls3(&g, &h).to_vec(),
                 None => linear_solve(&g, &h, held, free),
             };
             let mut q = 0.0;
@@ -1227,6 +1331,49 @@ pub(super) fn positive_solve3(g: &[f64; 9], h: &[f64; 3]) -> Option<[f64; 3]> {
     let c0 = (y0 - l10 * c1 - l20 * c2) / l00;
     let c = [c0, c1, c2];
     c.iter().all(|v| *v > 0.0 && v.is_finite()).then_some(c)
+}
+
+/// The minimiser of ½ cᵀGc − hᵀc over c ≥ 0 for a symmetric 3 × 3 `g` (row-major), by its
+/// faces: the minimum of a strictly convex quadratic over the orthant is the interior minimum
+/// of the face its positive coefficients span, so it is the lowest of the faces' interior
+/// minima that are feasible (each coefficient of the face positive), or 0. A face whose
+/// matrix is not well inside positive definite (a pivot at most 1e-10 of its diagonal) is
+/// passed over. [`nnls`]'s answer without its allocations, for [`two_lobe_linearised`]'s
+/// points where [`positive_solve3`] declines.
+pub(super) fn nnls3(g: &[f64; 9], h: &[f64; 3]) -> [f64; 3] {
+    let mut best = ([0.0; 3], 0.0);
+    let mut consider = |c: [f64; 3]| {
+        if c.iter().all(|v| *v >= 0.0 && v.is_finite()) {
+            // At a face's interior minimum G_SS c_S = h_S, so the value is −½ hᵀc.
+            let q = -0.5 * (h[0] * c[0] + h[1] * c[1] + h[2] * c[2]);
+            if q < best.1 {
+                best = (c, q);
+            }
+        }
+    };
+    for i in 0..3 {
+        if g[4 * i] > 0.0 && h[i] > 0.0 {
+            let mut c = [0.0; 3];
+            c[i] = h[i] / g[4 * i];
+            consider(c);
+        }
+    }
+    for (i, j) in [(0, 1), (0, 2), (1, 2)] {
+        let (a, b, d) = (g[4 * i], g[3 * i + j], g[4 * j]);
+        let det = a * d - b * b;
+        if a > 0.0 && d > 0.0 && det > 1e-10 * a * d {
+            let (ci, cj) = ((h[i] * d - h[j] * b) / det, (h[j] * a - h[i] * b) / det);
+            if ci > 0.0 && cj > 0.0 {
+                let mut c = [0.0; 3];
+                (c[i], c[j]) = (ci, cj);
+                consider(c);
+            }
+        }
+    }
+    if let Some(c) = positive_solve3(g, h) {
+        consider(c);
+    }
+    best.0
 }
 
 /// The starting grid of the nonlinear free variables: which variables have a grid, the grid
@@ -1509,8 +1656,9 @@ mod tests {
         }
     }
 
-    /// The lane cost of several lobes equals the row pass's cost (library ln_1p) to 1e-13, for
-    /// lengths with and without a partial last block, weighted or not.
+    /// The lane cost of several lobes, and the lane pass with its normal equations, equal the
+    /// row pass's (library ln_1p) to 1e-13 (cost) and 1e-12 (JᵀJ, Jᵀr), for lengths with and
+    /// without a partial last block, weighted or not.
     #[test]
     fn lane_cost_of_several_lobes_matches_the_row_pass() {
         let rows = spread_rows();
@@ -1545,7 +1693,22 @@ mod tests {
                     basis(&ones, &ones, len),
                 ];
                 let c = [0.7, 0.2, 0.05];
-                let want = linear_pass_many(&rows, 0..len, &bases, &c, Loss::Log).0;
+                let (want, jtj, jtr) = linear_pass_many_rows(&rows, 0..len, &bases, &c, Loss::Log);
+                // The lane pass with its Jacobian: the same sums to 1e-12 (relative to the
+                // largest of its kind).
+                let sw = weights(&rows, 0..len);
+                let (cost, gj, gr) =
+                    linear_pass_log_many(&rows.nl[..len], &rows.target[..len], sw, &bases, &c);
+                let close = |a: &[f64], b: &[f64]| {
+                    let scale = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                    a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-12 * scale)
+                };
+                assert!(
+                    (cost - want).abs() <= 1e-13 * want,
+                    "{len} {weighted}: {cost} vs {want}"
+                );
+                assert!(close(&gj, &jtj), "{len} {weighted}: {gj:?} vs {jtj:?}");
+                assert!(close(&gr, &jtr), "{len} {weighted}: {gr:?} vs {jtr:?}");
                 let got = linear_cost_log_many(
                     &rows.nl[..len],
                     &rows.target[..len],
@@ -1624,7 +1787,7 @@ mod tests {
     fn nnls_matches_brute_force() {
         use rand::{Rng, SeedableRng};
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(22);
-        let mut bound = 0;
+        let (mut bound, mut three) = (0, 0);
         for case in 0..400 {
             let k = 1 + case % 4;
             let rows = 6;
@@ -1643,6 +1806,19 @@ mod tests {
             let free: Vec<bool> = (0..k).map(|i| case % 7 != i).collect();
             let got = nnls(&a, &b, &free);
             let want = brute_force(&a, &b, &free);
+            if k == 3 && free.iter().all(|&f| f) {
+                // The face-by-face 3 × 3 solve: the same minimum.
+                let (g3, h3): ([f64; 9], [f64; 3]) =
+                    (a[..].try_into().unwrap(), [b[0], b[1], b[2]]);
+                let c = nnls3(&g3, &h3);
+                let q3 = quadratic(&a, &b, &c);
+                three += 1;
+                assert!(c.iter().all(|&v| v >= 0.0), "case {case}: {c:?}");
+                assert!(
+                    (q3 - quadratic(&a, &b, &want)).abs() <= 1e-10 * q3.abs().max(1e-12),
+                    "case {case}: nnls3 {c:?} ({q3}) vs brute force {want:?}"
+                );
+            }
             bound += got.iter().filter(|&&v| v == 0.0).count();
             let (qg, qw) = (quadratic(&a, &b, &got), quadratic(&a, &b, &want));
             assert!(got.iter().all(|&v| v >= 0.0), "case {case}: {got:?}");
@@ -1655,6 +1831,7 @@ mod tests {
             );
         }
         assert!(bound > 100, "the cases must reach the bounds: {bound}");
+        assert!(three > 50, "nnls3 must meet enough cases: {three}");
     }
 
     /// Hand-worked: with A = [[2, 1], [1, 2]] and b = (3, 0) the unconstrained solution is
