@@ -316,41 +316,15 @@ pub(super) fn profile_range(
         q.transforms.remove(k);
         q
     };
-    // Where the others go as variable k moves, to first order: the Gauss–Newton model of the
-    // cost, ½ δᵀHδ with H = JᵀJ at the optimum, minimised over the others with δ_k held,
-    // gives δ_rest = −H_rr⁻¹ H_rk δ_k. Each refit starts from its warm point moved along it
-    // (fewer iterations; the refit, not the prediction, decides the cost). Zero where H is
-    // not positive definite in the others.
-    let ne = lsq::normal_equations(p, x, Robust::None)?;
-    let c0 = ne.cost;
+    let c0 = lsq::cost(p, x, Robust::None)?;
     let limit = 1.01 * c0;
     let mut rest = x.to_vec();
     rest.remove(k);
-    let dim = x.len();
-    let others: Vec<usize> = (0..dim).filter(|&j| j != k).collect();
-    let h_rr: Vec<f64> = others
-        .iter()
-        .flat_map(|&i| others.iter().map(move |&j| (i, j)))
-        .map(|(i, j)| ne.jtj[i * dim + j])
-        .collect();
-    let h_rk: Vec<f64> = others.iter().map(|&i| ne.jtj[i * dim + k]).collect();
-    let diag: Vec<f64> = others
-        .iter()
-        .map(|&i| ne.jtj[i * dim + i].max(1e-300))
-        .collect();
-    let slope = lsq::damped_solve(&h_rr, &h_rk, &diag, 0.0, &vec![false; others.len()])
-        .unwrap_or_else(|| vec![0.0; others.len()]);
-    let predicted = |u: f64, from: f64, warm: &[f64]| -> Vec<f64> {
-        warm.iter()
-            .zip(&slope)
-            .map(|(w, s)| w + s * (u - from))
-            .collect()
-    };
     // Cost with variable k held at u, the rest refitted from `warm`, and where they ended. A
     // refit above the limit is made again from the optimum, and the lower kept: a warm start
     // from a distant probe can stall (40 iterations) where the optimum's values do not, and
     // a value is called failing only when neither start fits.
-    let held = |u: f64, from: f64, warm: &[f64]| -> (f64, Vec<f64>) {
+    let held = |u: f64, warm: &[f64]| -> (f64, Vec<f64>) {
         let q = held_problem(u);
         let refit = |from: &[f64]| {
             let s = lsq::levenberg_marquardt(&q, from, Robust::None, &limits);
@@ -361,11 +335,11 @@ pub(super) fn profile_range(
             };
             (c, s.x)
         };
-        let first = refit(&predicted(u, from, warm));
+        let first = refit(warm);
         if first.0 <= limit || warm == rest.as_slice() {
             return first;
         }
-        let cold = refit(&predicted(u, x[k], &rest));
+        let cold = refit(&rest);
         if cold.0 < first.0 { cold } else { first }
     };
     // The subsample's own minimum, where the profiled cost bottoms out: the walk's steps are
@@ -392,8 +366,7 @@ const MAX_PROBES: usize = 60;
 /// One side of a profile: from the minimum `u0` (cost `c0`) in direction `dir` (±1), the
 /// nearest probed value whose profiled cost exceeds `limit`, or `None` when `edge` itself
 /// does not exceed it (the range is open on that side); with the number of probes. `held(u,
-/// v, warm)` is the profiled cost at u, refitted from `warm` (where the other variables ended
-/// at the value v probed before), and where the other variables end.
+/// warm)` is the profiled cost at u, refitted from `warm`, and where the other variables end.
 ///
 /// The walk starts at the predicted distance `du` (the quadratic model's, 0.05 where it is
 /// not finite or not positive); while a probe fits, the next goes where c(d) = cv + a (d −
@@ -402,13 +375,13 @@ const MAX_PROBES: usize = 60;
 /// walk starts at the minimum, else (a subsample's profile measured from the full data's
 /// optimum) its own minimum's distance along `dir` and cost, for a profile that first dips
 /// below c0 rises from there, not from c0. The bracket (last fitting distance, first failing
-/// one) then closes by interpolation in (d − dv)² (exact for a quadratic profile), nudged by a quarter of the tolerance towards the side the
-/// last probe did not land on, with a bisection after three probes in a row on one side,
-/// until it is at most 1 % of the distance wide (or 1e-9): the end returned is then within
-/// that of the true crossing, from outside.
+/// one) then closes by interpolation in (d − dv)² (exact for a quadratic profile), nudged by
+/// a quarter of the tolerance towards the side the last probe did not land on, with a
+/// bisection after three probes in a row on one side, until it is at most 1 % of the distance
+/// wide (or 1e-9): the end returned is then within that of the true crossing, from outside.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn crossing(
-    held: &impl Fn(f64, f64, &[f64]) -> (f64, Vec<f64>),
+    held: &impl Fn(f64, &[f64]) -> (f64, Vec<f64>),
     u0: f64,
     warm0: &[f64],
     c0: f64,
@@ -427,7 +400,7 @@ pub(super) fn crossing(
     let mut d = if du.is_finite() && du > 0.0 { du } else { 0.05 };
     let (mut b, mut cb, mut wb) = loop {
         d = d.min(reach);
-        let (c, w) = held(at(d), at(a), &wa);
+        let (c, w) = held(at(d), &wa);
         probes += 1;
         if !(c <= limit) {
             break (d, c, w);
@@ -471,12 +444,12 @@ pub(super) fn crossing(
             (r + q).clamp(a + q, b - q)
         };
         // Warm from the nearer end (the failing end only if its refit is finite).
-        let (from, warm) = if m - a <= b - m || !cb.is_finite() {
-            (a, &wa)
+        let warm = if m - a <= b - m || !cb.is_finite() {
+            &wa
         } else {
-            (b, &wb)
+            &wb
         };
-        let (c, w) = held(at(m), at(from), warm);
+        let (c, w) = held(at(m), warm);
         probes += 1;
         let side = if c <= limit {
             (a, ca, wa) = (m, c, w);
@@ -496,8 +469,8 @@ mod tests {
     use super::*;
 
     /// A profiled cost given as a function (no refit: `warm` is passed through).
-    fn probe(f: impl Fn(f64) -> f64) -> impl Fn(f64, f64, &[f64]) -> (f64, Vec<f64>) {
-        move |u, _, w| (f(u), w.to_vec())
+    fn probe(f: impl Fn(f64) -> f64) -> impl Fn(f64, &[f64]) -> (f64, Vec<f64>) {
+        move |u, w| (f(u), w.to_vec())
     }
 
     /// A quadratic profile c(u) = c0 (1 + (u − u0)²/s²) rises by 1 % at u0 ± s/10 exactly:
@@ -522,7 +495,7 @@ mod tests {
                     d >= exact * (1.0 - 1e-12) && d <= exact * 1.0101,
                     "du {du} dir {dir}: {d} vs {exact}"
                 );
-                assert!(f(u0 + dir * d, u0, &[]).0 > 1.01 * c0);
+                assert!(f(u0 + dir * d, &[]).0 > 1.01 * c0);
                 assert!(n <= most, "du {du} dir {dir}: {n} probes");
             }
         }
