@@ -350,17 +350,25 @@ impl Rows {
         }
     }
 
-    /// Rows from `n` inputs, filled in parallel over fixed chunks: `fill(range, cols)` writes the
+    /// Rows from `n` inputs, filled in parallel over chunks: `fill(range, cols)` writes the
     /// rows it keeps from inputs `range` to the front of its column slices (in the order of
     /// [`Rows::write`]) and returns how many it kept; the kept rows are joined in input order.
-    /// The columns are allocated once at full size and compacted in place; unweighted rows get
-    /// no √weight column (`fill` is handed an empty slice for it).
+    /// The chunks are equal, at most 16,384 inputs and at least two beyond 4,096 inputs (a
+    /// 10,000-sample set or a MERL table's 16,512 rows in two halves, not one chunk or chunks
+    /// of 16,384 and 128); every row is the same however they are cut. The columns are
+    /// allocated once at full size and compacted in place; unweighted rows get no √weight
+    /// column (`fill` is handed an empty slice for it).
     pub fn par_fill<F>(n: usize, weighted: bool, fill: F) -> Rows
     where
         F: Fn(std::ops::Range<usize>, [&mut [f64]; 8]) -> usize + Sync,
     {
         use rayon::prelude::*;
         const CHUNK: usize = 16_384;
+        let chunk = if n <= 4_096 {
+            n.max(1)
+        } else {
+            n.div_ceil(n.div_ceil(CHUNK).max(2))
+        };
         let width = |j: usize| if j == 7 && !weighted { 0 } else { n };
         // Zeroed (and, on a first run, faulted in) on every thread when there are several
         // chunks: 56 MB for a million rows, a single-threaded memset of several ms otherwise.
@@ -378,7 +386,7 @@ impl Rows {
         let mut rest: [&mut [f64]; 8] = cols.each_mut().map(|c| c.as_mut_slice());
         let mut start = 0;
         while start < n {
-            let len = CHUNK.min(n - start);
+            let len = chunk.min(n - start);
             let part: [&mut [f64]; 8] = std::array::from_fn(|j| {
                 let c = std::mem::take(&mut rest[j]);
                 let (a, b) = c.split_at_mut(len.min(c.len()));
@@ -399,7 +407,7 @@ impl Rows {
         };
         let mut kept = 0;
         for (k, &count) in counts.iter().enumerate() {
-            let from = k * CHUNK;
+            let from = k * chunk;
             if from != kept {
                 for col in cols.iter_mut().filter(|c| !c.is_empty()) {
                     col.copy_within(from..from + count, kept);
