@@ -420,11 +420,7 @@ pub(super) fn linear_pass_log_body<const JAC: bool>(
         // The last block: lanes past the end have weight 0.
         let len = m - i;
         let pad = |v: &[f64]| -> [f64; LANES] { std::array::from_fn(|l| v[i + l.min(len - 1)]) };
-        let w: [f64; LANES] = std::array::from_fn(|l| match (l < len, sw.is_empty()) {
-            (false, _) => 0.0,
-            (true, true) => 1.0,
-            (true, false) => sw[i + l],
-        });
+        let w = lane_weights(sw, i, len);
         let (sa, sb) = (pad(s.a), pad(s.b));
         let sv = std::array::from_fn(|l| sa[l] * sb[l]);
         linear_block::<JAC>(&pad(nl), &pad(tg), &w, &sv, ab, &mut acc);
@@ -468,6 +464,31 @@ pub(super) fn linear_block<const JAC: bool>(
     }
 }
 
+/// Rows `i..i + len` of `v` as one lane block (`len` ≤ [`LANES`]): lanes past the end repeat
+/// the last row (a full block: plain loads).
+#[inline(always)]
+fn lane_block(v: &[f64], i: usize, len: usize) -> [f64; LANES] {
+    if len == LANES {
+        v[i..i + LANES].try_into().expect("a full block")
+    } else {
+        std::array::from_fn(|l| v[i + l.min(len - 1)])
+    }
+}
+
+/// The √weights of [`lane_block`]'s rows (`sw` empty: 1), 0 in the lanes past the end.
+#[inline(always)]
+fn lane_weights(sw: &[f64], i: usize, len: usize) -> [f64; LANES] {
+    match (sw.is_empty(), len == LANES) {
+        (true, true) => [1.0; LANES],
+        (false, true) => lane_block(sw, i, len),
+        (empty, false) => std::array::from_fn(|l| match (l < len, empty) {
+            (false, _) => 0.0,
+            (true, true) => 1.0,
+            (true, false) => sw[i + l],
+        }),
+    }
+}
+
 /// The cost alone of [`linear_pass_many`] for the log loss when the last basis is ones (pd/π):
 /// f = Σ c_j s_j over the specular bases `spec` plus `b`, eight rows at a time with
 /// [`linear_block`] (`sw` empty = unweighted).
@@ -482,29 +503,11 @@ pub(super) fn linear_cost_log_many(
 ) -> f64 {
     let m = nl.len();
     let mut acc = [[0.0f64; LANES]; 6];
-    let ones = [1.0f64; LANES];
     let mut i = 0;
     while i < m {
         let len = (m - i).min(LANES);
-        // Lanes past the end repeat the last row with weight 0 (a full block: plain loads).
-        let get = |v: &[f64]| -> [f64; LANES] {
-            if len == LANES {
-                v[i..i + LANES].try_into().expect("a full block")
-            } else {
-                std::array::from_fn(|l| v[i + l.min(len - 1)])
-            }
-        };
-        let w: [f64; LANES] = if sw.is_empty() && len == LANES {
-            ones
-        } else if len == LANES {
-            get(sw)
-        } else {
-            std::array::from_fn(|l| match (l < len, sw.is_empty()) {
-                (false, _) => 0.0,
-                (true, true) => 1.0,
-                (true, false) => sw[i + l],
-            })
-        };
+        let get = |v: &[f64]| lane_block(v, i, len);
+        let w = lane_weights(sw, i, len);
         let mut sv = [0.0f64; LANES];
         for (s, &c) in spec.iter().zip(coef) {
             let (sa, sb) = (get(s.a), get(s.b));
@@ -647,19 +650,8 @@ fn linear_pass_log_many_body<const K: usize>(
     let mut i = 0;
     while i < m {
         let len = (m - i).min(LANES);
-        // Lanes past the end repeat the last row with weight 0 (a full block: plain loads).
-        let get = |v: &[f64]| -> [f64; LANES] {
-            if len == LANES {
-                v[i..i + LANES].try_into().expect("a full block")
-            } else {
-                std::array::from_fn(|l| v[i + l.min(len - 1)])
-            }
-        };
-        let w: [f64; LANES] = std::array::from_fn(|l| match (l < len, sw.is_empty()) {
-            (false, _) => 0.0,
-            (true, true) => 1.0,
-            (true, false) => sw[i + l],
-        });
+        let get = |v: &[f64]| lane_block(v, i, len);
+        let w = lane_weights(sw, i, len);
         let sv: [[f64; LANES]; K] = std::array::from_fn(|j| {
             let (a, b) = (get(s[j].a), get(s[j].b));
             std::array::from_fn(|l| a[l] * b[l])

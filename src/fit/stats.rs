@@ -54,7 +54,7 @@ pub(super) fn uncertainty(
                 let centre = profile_centre(&q, &sol.x, opts);
                 (q, centre)
             });
-            profile_range(q, &sol.x, Some(centre), k, du, opts)
+            profile_range(q, &sol.x, Some((&centre.0, centre.1)), k, du, opts)
         }
     };
     let all_ranges: Vec<Option<(f64, f64)>> = {
@@ -260,18 +260,28 @@ const PROFILE_FTOL: f64 = 1e-6;
 /// Rows per channel of the subsample a range is profiled on.
 const PROFILE_ROWS: usize = 1000;
 
-/// The subsample's own minimum, refitted from the fit's optimum `x` (with the profiles'
-/// tolerance), or `x` where that refit ends no lower: where the profiled cost bottoms out
-/// (see [`crossing`]'s `vertex`).
-pub(super) fn profile_centre(p: &BrdfProblem, x: &[f64], opts: &FitOptions) -> Vec<f64> {
-    let limits = Limits {
+/// The limits of a profile refit. The 1 % test needs the profiled cost to a few digits only:
+/// a refit stopped at a relative reduction of 1e-6 moves an end by about 1e-4 of its distance,
+/// well inside the bracket's 1 % resolution.
+fn profile_limits(opts: &FitOptions) -> Limits {
+    Limits {
         max_iter: 40,
         ftol: PROFILE_FTOL,
         ..opts.limits
-    };
+    }
+}
+
+/// The subsample's own minimum and its cost, refitted from the fit's optimum `x` (with the
+/// profiles' limits), or `x` where that refit ends no lower: where the profiled cost bottoms
+/// out (see [`crossing`]'s `vertex`).
+pub(super) fn profile_centre(p: &BrdfProblem, x: &[f64], opts: &FitOptions) -> (Vec<f64>, f64) {
     let c = lsq::cost(p, x, Robust::None).unwrap_or(f64::INFINITY);
-    let s = lsq::levenberg_marquardt(p, x, Robust::None, &limits);
-    if s.cost < c { s.x } else { x.to_vec() }
+    let s = lsq::levenberg_marquardt(p, x, Robust::None, &profile_limits(opts));
+    if s.cost < c {
+        (s.x, s.cost)
+    } else {
+        (x.to_vec(), c)
+    }
 }
 
 /// Profile a free variable on problem `p`: hold it at probed values, refit the rest, and
@@ -285,21 +295,14 @@ pub(super) fn profile_centre(p: &BrdfProblem, x: &[f64], opts: &FitOptions) -> V
 pub(super) fn profile_range(
     p: &BrdfProblem,
     x: &[f64],
-    centre: Option<&[f64]>,
+    centre: Option<(&[f64], f64)>,
     k: usize,
     du: f64,
     opts: &FitOptions,
 ) -> Option<(f64, f64)> {
     let t = p.transforms[k];
     let (ulo, uhi) = t.bounds();
-    // The 1 % test needs the profiled cost to a few digits only: a refit stopped at a relative
-    // reduction of 1e-6 moves an end by about 1e-4 of its distance, well inside the bracket's
-    // 1 % resolution.
-    let limits = Limits {
-        max_iter: 40,
-        ftol: PROFILE_FTOL,
-        ..opts.limits
-    };
+    let limits = profile_limits(opts);
     // The problem with variable k held at solver value u (the rest free).
     let held_problem = |u: f64| -> BrdfProblem {
         let mut q = p.clone();
@@ -345,7 +348,7 @@ pub(super) fn profile_range(
     // The subsample's own minimum, where the profiled cost bottoms out: the walk's steps are
     // placed from it.
     let (uc, cc) = centre
-        .and_then(|c| Some((c[k], lsq::cost(p, c, Robust::None)?)))
+        .map(|(c, cc)| (c[k], cc))
         .filter(|&(_, cc)| cc < c0)
         .unwrap_or((x[k], c0));
     let side = |dir: f64| {
