@@ -188,45 +188,66 @@ impl Transform {
 /// equal to it in index order, are taken. The blocks (16–1,024 rows) are short enough that
 /// there are about 4k of them: with fewer blocks than k the bound is void and every row would
 /// be a candidate (the 62,500-row subsample of a million rows, k = 6,250, copied and selected
-/// all million values).
+/// all million values). Values are compared as [`total_key`]s, the order of `f64::total_cmp`
+/// (NaN and −0 included), so a block's maximum bounds every value in it.
 fn largest(v: &[f64], range: std::ops::Range<usize>, k: usize) -> Vec<usize> {
     if k == 0 || range.is_empty() {
         return Vec::new();
     }
     let block = (range.len() / (4 * k)).clamp(16, 1024);
-    let maxima: Vec<f64> = v[range.clone()]
-        .chunks(block)
-        .map(|c| c.iter().copied().fold(f64::NEG_INFINITY, f64::max))
-        .collect();
+    let maxima = block_maxima(&v[range.clone()], block);
     let floor = if maxima.len() > k {
         let mut m = maxima.clone();
-        *m.select_nth_unstable_by(k - 1, |a, b| b.total_cmp(a)).1
+        *m.select_nth_unstable_by(k - 1, |a, b| b.cmp(a)).1
     } else {
-        f64::NEG_INFINITY
+        i64::MIN
     };
-    let below = |x: f64| x.total_cmp(&floor).is_lt();
     let mut cand: Vec<usize> = Vec::new();
     for (b, &max) in maxima.iter().enumerate() {
-        if below(max) {
+        if max < floor {
             continue;
         }
         let lo = range.start + b * block;
-        cand.extend((lo..(lo + block).min(range.end)).filter(|&i| !below(v[i])));
+        cand.extend((lo..(lo + block).min(range.end)).filter(|&i| total_key(v[i]) >= floor));
     }
     if cand.len() <= k {
         return cand;
     }
-    let mut vals: Vec<f64> = cand.iter().map(|&i| v[i]).collect();
-    let t = *vals.select_nth_unstable_by(k - 1, |a, b| b.total_cmp(a)).1;
+    let keys: Vec<i64> = cand.iter().map(|&i| total_key(v[i])).collect();
+    let t = *keys
+        .clone()
+        .select_nth_unstable_by(k - 1, |a, b| b.cmp(a))
+        .1;
     // Every value above t, then the values equal to t by lower index (`cand` is in order).
     let mut out: Vec<usize> = cand
         .iter()
-        .copied()
-        .filter(|&i| v[i].total_cmp(&t).is_gt())
+        .zip(&keys)
+        .filter_map(|(&i, &key)| (key > t).then_some(i))
         .collect();
-    let equal = cand.iter().copied().filter(|&i| v[i].total_cmp(&t).is_eq());
-    out.extend(equal.take(k - out.len()));
+    let need = k - out.len();
+    keys.iter()
+        .zip(&cand)
+        .filter(|(key, _)| **key == t)
+        .take(need)
+        .for_each(|(_, &i)| out.push(i));
     out
+}
+
+/// `x` as an integer in the order of `f64::total_cmp` (the standard library's own mapping:
+/// negative values have their magnitude bits flipped).
+#[inline]
+fn total_key(x: f64) -> i64 {
+    let b = x.to_bits() as i64;
+    b ^ (((b >> 63) as u64) >> 1) as i64
+}
+
+/// The largest [`total_key`] of each `block` values of `v`; vectorised (a 64-bit integer
+/// maximum), compiled for AVX-512 and AVX2 as well and picked at run time.
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn block_maxima(v: &[f64], block: usize) -> Vec<i64> {
+    v.chunks(block)
+        .map(|c| c.iter().map(|&x| total_key(x)).max().unwrap_or(i64::MIN))
+        .collect()
 }
 
 /// Where a model parameter of one channel comes from.
@@ -551,39 +572,59 @@ impl BrdfProblem {
                 order.sort_unstable();
                 let rest = hi - lo - order.len();
                 let stride = (hi - lo).div_ceil(max_rows_per_channel - top).max(1);
-                // Both in increasing order: one walk through `order` skips its rows.
+                // Every stride-th row and the largest, merged in index order in one walk (both
+                // increasing); a strided row among the largest is taken once, with weight 1.
+                // The strided rows' weight, known once they are counted, is set after.
+                let first = pick.len();
+                pick.reserve(max_rows_per_channel + 1);
                 let mut top_rows = order.iter().copied().peekable();
-                let kept: Vec<usize> = (lo..hi)
-                    .step_by(stride)
-                    .filter(|&i| {
-                        while top_rows.next_if(|&o| o < i).is_some() {}
-                        top_rows.peek() != Some(&i)
-                    })
-                    .collect();
-                let w = rest as f64 / kept.len() as f64;
-                let mut chosen: Vec<(usize, f64)> = kept.into_iter().map(|i| (i, w)).collect();
-                chosen.extend(order.iter().map(|&i| (i, 1.0)));
-                chosen.sort_by_key(|&(i, _)| i);
-                pick.extend(chosen);
+                let mut strided = 0;
+                for i in (lo..hi).step_by(stride) {
+                    while let Some(o) = top_rows.next_if(|&o| o < i) {
+                        pick.push((o, 1.0));
+                    }
+                    if top_rows.next_if_eq(&i).is_some() {
+                        pick.push((i, 1.0));
+                    } else {
+                        pick.push((i, f64::NAN));
+                        strided += 1;
+                    }
+                }
+                pick.extend(top_rows.map(|o| (o, 1.0)));
+                let w = rest as f64 / strided as f64;
+                for p in pick[first..].iter_mut().filter(|p| p.1.is_nan()) {
+                    p.1 = w;
+                }
             }
             starts.push(pick.len());
         }
         let r = &self.rows;
-        let take = |v: &Vec<f64>| pick.iter().map(|&(i, _)| v[i]).collect::<Vec<f64>>();
-        // Each column gathered by its own task when the subsample is large (a million rows'
-        // 62,500-row subsample: seven strided sweeps through 8 MB columns); small ones here.
-        let [nl, ne, nh, eh, re, g_ne, target] = if pick.len() >= 16_384 {
+        // A large subsample (a million rows' 62,500) gathers each column on every thread, in
+        // halves: seven strided sweeps through 8 MB columns, memory-bound.
+        let large = pick.len() >= 16_384;
+        let take = |v: &Vec<f64>| -> Vec<f64> {
             use rayon::prelude::*;
-            let src = [&r.nl, &r.ne, &r.nh, &r.eh, &r.re, &r.g_ne, &r.target];
-            let mut v: Vec<Vec<f64>> = src.par_iter().map(|c| take(c)).collect();
-            std::array::from_fn(|j| std::mem::take(&mut v[j]))
-        } else {
-            [&r.nl, &r.ne, &r.nh, &r.eh, &r.re, &r.g_ne, &r.target].map(take)
+            if large {
+                pick.par_iter()
+                    .with_min_len(8_192)
+                    .map(|&(i, _)| v[i])
+                    .collect()
+            } else {
+                pick.iter().map(|&(i, _)| v[i]).collect()
+            }
         };
+        let [nl, ne, nh, eh, re, g_ne, target] =
+            [&r.nl, &r.ne, &r.nh, &r.eh, &r.re, &r.g_ne, &r.target].map(take);
         let weighted = r.weighted || pick.iter().any(|&(_, w)| w != 1.0);
         let sw = if weighted {
+            let mut root_w = (1.0, 1.0);
             pick.iter()
-                .map(|&(i, w)| r.sw.get(i).copied().unwrap_or(1.0) * w.sqrt())
+                .map(|&(i, w)| {
+                    if w != root_w.0 {
+                        root_w = (w, w.sqrt());
+                    }
+                    r.sw.get(i).copied().unwrap_or(1.0) * root_w.1
+                })
                 .collect()
         } else {
             Vec::new()
@@ -1116,6 +1157,32 @@ mod tests {
             }
         }
         assert!(super::largest(&[1.0, 2.0], 0..2, 0).is_empty());
+    }
+
+    /// The same in the order of `f64::total_cmp` with NaN (either sign) and both zeros among
+    /// the values: a block whose other values are all below the bound still yields its NaN
+    /// (largest of all) and its +0 (above −0), as a full sort does.
+    #[test]
+    fn largest_orders_nan_and_signed_zeros_as_total_cmp() {
+        let n = 20_000;
+        let v: Vec<f64> = (0..n)
+            .map(|i: usize| match i.wrapping_mul(2_654_435_761) % 997 {
+                0 => f64::NAN,
+                1 => -f64::NAN,
+                2..=40 => 0.0,
+                41..=80 => -0.0,
+                r => -(r as f64),
+            })
+            .collect();
+        for k in [5, 30, 60, 150, 400] {
+            let mut want: Vec<usize> = (0..n).collect();
+            want.sort_by(|&a, &b| v[b].total_cmp(&v[a]).then(a.cmp(&b)));
+            want.truncate(k);
+            want.sort_unstable();
+            let mut got = super::largest(&v, 0..n, k);
+            got.sort_unstable();
+            assert_eq!(got, want, "k {k}");
+        }
     }
 
     /// The pixel value against the sRGB standard's own numbers (IEC 61966-2-1: 0.5 linear is
