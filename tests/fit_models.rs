@@ -53,6 +53,68 @@ fn every_model_at_once_equals_one_at_a_time() {
     }
 }
 
+/// The progress hook of `fit --model all` (its bar on a terminal): a start and an end for
+/// each channel's fit of each model in every run, the fit named while it runs (the model and
+/// its channel), the work done never falling and ending at the total, and the fits the same
+/// as without a hook. A joint fit (shared parameters) is one step for every channel.
+#[test]
+fn progress_names_each_fit_while_it_runs_and_ends_at_the_total() {
+    use std::sync::Mutex;
+    let ds = load("tests/data/vch_golden_yellow_rgb.csv");
+    let mut opts = all_models();
+    let mut joint = opts[3].clone();
+    joint.shared = vec!["n".to_string()];
+    opts.push(joint);
+    let calls: Mutex<Vec<(u64, u64, String)>> = Mutex::new(Vec::new());
+    let hook = |done: u64, total: u64, running: &str| {
+        calls
+            .lock()
+            .unwrap()
+            .push((done, total, running.to_string()));
+    };
+    let repeat = 2;
+    let (with, _) = fit::fit_models_with_progress(&ds, &opts, repeat, &hook).unwrap();
+    let (without, _) = fit::fit_models(&ds, &opts, 1).unwrap();
+    for (a, b) in with
+        .into_iter()
+        .flatten()
+        .zip(without.into_iter().flatten())
+    {
+        assert_eq!(untimed(a), untimed(b));
+    }
+    let calls = calls.into_inner().unwrap();
+    // 9 models × 3 channels, and the joint fit once, in each of the two runs; a start and an end each.
+    assert_eq!(calls.len(), 2 * repeat * (opts.len() - 1) * 3 + 2 * repeat);
+    let total = calls[0].1;
+    assert!(calls.iter().all(|c| c.1 == total));
+    assert!(calls.windows(2).all(|w| w[0].0 <= w[1].0), "work done fell");
+    assert_eq!(calls.last().unwrap().0, total);
+    assert_eq!(calls.last().unwrap().2, "", "nothing runs at the end");
+    // Each fit of one channel is named, with its channel, from its start to its end.
+    let named = |s: &str| {
+        calls
+            .iter()
+            .filter(|c| c.2.split(", ").any(|r| r == s))
+            .count()
+    };
+    for label in [
+        "ggx-smith-2 (r)",
+        "torrance-sparrow (abc) (g)",
+        "lambert (b)",
+    ] {
+        assert!(
+            named(label) >= repeat,
+            "{label} named {} times",
+            named(label)
+        );
+    }
+    // The joint fit is named without a channel (the per-channel fits of the same model with
+    // one).
+    let joint = opts.last().unwrap();
+    let joint = joint.kind.label(joint.dist);
+    assert!(named(&joint) >= repeat, "{joint}");
+}
+
 #[test]
 fn an_error_is_the_first_in_the_order_given() {
     let ds = load("data/blinn-mgo.csv");

@@ -194,6 +194,9 @@ pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
     }
 }
 
+/// Samples from which a single file's fits show a progress bar on a terminal.
+const BAR_SAMPLES: usize = 100_000;
+
 /// Fit one file as the flags say: the terminal text and the fits.
 pub(crate) fn fit_one(
     a: &FitArgs,
@@ -270,9 +273,22 @@ pub(crate) fn fit_one(
         o.seed = a.verify_seed;
         opts.push(o);
     }
-    // The models in parallel, each channel's geometry computed once for them all.
-    let (all, wall) = fit::fit_models(&ds, &opts, a.repeat as usize)
-        .with_context(|| file.display().to_string())?;
+    // The models in parallel, each channel's geometry computed once for them all. A bar (on a
+    // terminal, one file) from a tenth of a million samples on, where the fits take seconds (a
+    // full MERL table: about 20 s for --model all); a batch of files has its own bar.
+    let bar = if a.files.len() == 1 && ds.len() >= BAR_SAMPLES {
+        progress_bar(1, "fitting")
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let shown = |done: u64, total: u64, running: &str| {
+        bar.set_length(total);
+        bar.set_position(done);
+        bar.set_message(format!("fitting {running}"));
+    };
+    let fitted = fit::fit_models_with_progress(&ds, &opts, a.repeat as usize, &shown);
+    bar.finish_and_clear();
+    let (all, wall) = fitted.with_context(|| file.display().to_string())?;
     if a.repeat > 1 && kinds.len() > 1 {
         eprintln!(
             "{}: {} models fitted in {:.1} ms ({} channel(s); wall, median of {} runs)",

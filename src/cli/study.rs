@@ -108,7 +108,20 @@ pub(crate) fn run_study(cmd: StudyCommand) -> Result<()> {
         } => {
             let ds = study_input(&data, &load)?;
             let truth = study::parse_truth(&ds);
-            let mut rows = study::speed_accuracy(&ds, truth.as_ref(), repeats);
+            // A bar with the method and model running (a few seconds on a MERL CSV, minutes
+            // on a full table).
+            let bar = progress_bar(1, "speed against accuracy");
+            let mut rows = study::speed_accuracy_with_progress(
+                &ds,
+                truth.as_ref(),
+                repeats,
+                &|done, total, what| {
+                    bar.set_length(total as u64);
+                    bar.set_position(done as u64);
+                    bar.set_message(what.to_string());
+                },
+            );
+            bar.finish_and_clear();
             match peer_python
                 .as_deref()
                 .and_then(|py| study::scipy_peer(&ds, py, &peer_script))

@@ -493,14 +493,17 @@ pub fn fit(ds: &Dataset, opts: &FitOptions) -> Result<Vec<FitResult>, FitError> 
     // Each channel's geometry pass is timed with its fit. On a thread of rayon's pool (called
     // from outside it, the work is handed to the pool once): each parallel stage then wakes
     // the other core only, instead of putting this thread to sleep and waking it again.
-    rayon::scope(|_| fit_with(ds, opts, |c| timed_rows(ds, c, opts)))
+    rayon::scope(|_| fit_with(ds, opts, |c| timed_rows(ds, c, opts), &|_, _| {}))
 }
 
-/// [`fit`] with each channel's rows (and their geometry seconds) from `timed`.
+/// [`fit`] with each channel's rows (and their geometry seconds) from `timed`; `step(c, true)`
+/// as the fit of channel `c` starts and `step(c, false)` as it ends (`None`: the joint fit of
+/// every channel).
 fn fit_with(
     ds: &Dataset,
     opts: &FitOptions,
     timed: impl Fn(usize) -> (ChannelRows, f64),
+    step: &dyn Fn(Option<usize>, bool),
 ) -> Result<Vec<FitResult>, FitError> {
     let names = opts.kind.param_names(opts.dist);
     for (k, v) in opts.fix.iter().chain(&opts.start) {
@@ -532,14 +535,20 @@ fn fit_with(
     if opts.shared.is_empty() || ds.channels.len() == 1 {
         (0..ds.channels.len())
             .map(|c| {
+                step(Some(c), true);
                 let (rows, t) = timed(c);
-                fit_group(vec![rows], opts, t)
+                let f = fit_group(vec![rows], opts, t);
+                step(Some(c), false);
+                f
             })
             .collect()
     } else {
+        step(None, true);
         let (chans, times): (Vec<ChannelRows>, Vec<f64>) =
             (0..ds.channels.len()).map(timed).unzip();
-        Ok(vec![fit_group(chans, opts, times.iter().sum())?])
+        let f = fit_group(chans, opts, times.iter().sum());
+        step(None, false);
+        Ok(vec![f?])
     }
 }
 
@@ -601,6 +610,44 @@ pub fn fit_models(
     opts: &[FitOptions],
     repeat: usize,
 ) -> Result<(Vec<Vec<FitResult>>, f64), FitError> {
+    fit_models_with_progress(ds, opts, repeat, &|_, _, _| {})
+}
+
+/// [`fit_models`], calling `progress(done, total, running)` as each channel's fit of a model
+/// starts and ends: `done` of `total` units of work (each fit weighs [`work_weight`], its
+/// relative cost, so a bar's estimate of the time left holds while one dear fit runs for
+/// seconds: a full MERL table's ggx-smith-2), `running` the fits under way, e.g.
+/// `ggx-smith-2 (r), torrance-sparrow (abc) (g)`.
+pub fn fit_models_with_progress(
+    ds: &Dataset,
+    opts: &[FitOptions],
+    repeat: usize,
+    progress: &(dyn Fn(u64, u64, &str) + Sync),
+) -> Result<(Vec<Vec<FitResult>>, f64), FitError> {
+    let nch = ds.channels.len() as u64;
+    let total = repeat.max(1) as u64 * nch * opts.iter().map(work_weight).sum::<u64>();
+    let done = std::sync::atomic::AtomicU64::new(0);
+    let running: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+    // The hook of one entry's fits (see `fit_with`): the fit named in `running` while it runs,
+    // its weight added when it ends.
+    let step = |o: &FitOptions, c: Option<usize>, started: bool| {
+        let label = match c {
+            Some(c) if nch > 1 => format!("{} ({})", o.kind.label(o.dist), ds.channel_label(c)),
+            _ => o.kind.label(o.dist),
+        };
+        let mut run = running.lock().expect("no progress hook panics");
+        let now = if started {
+            run.push(label);
+            done.load(std::sync::atomic::Ordering::Relaxed)
+        } else {
+            if let Some(at) = run.iter().position(|r| *r == label) {
+                run.remove(at);
+            }
+            let units = work_weight(o) * if c.is_some() { 1 } else { nch };
+            done.fetch_add(units, std::sync::atomic::Ordering::Relaxed) + units
+        };
+        progress(now, total, &run.join(", "));
+    };
     let key = |o: &FitOptions| (o.loss, o.max_theta_deg.map(f64::to_bits), o.weights);
     let mut runs: Vec<Vec<Vec<FitResult>>> = vec![Vec::new(); opts.len()];
     let mut walls = Vec::new();
@@ -640,7 +687,7 @@ pub fn fit_models(
         // FIFO scope: the calling thread runs the first, a thief takes the oldest left), so
         // no core idles at the end behind the dearest fit.
         let mut order: Vec<usize> = (0..opts.len()).collect();
-        order.sort_by_key(|&i| std::cmp::Reverse(work_rank(&opts[i])));
+        order.sort_by_key(|&i| std::cmp::Reverse(work_weight(&opts[i])));
         let slots: Vec<std::sync::Mutex<Option<FitsOrError>>> =
             opts.iter().map(|_| std::sync::Mutex::new(None)).collect();
         rayon::scope_fifo(|s| {
@@ -653,14 +700,21 @@ pub fn fit_models(
                             // Each channel's rows are asked for once.
                             let rows: Vec<std::cell::Cell<Option<(ChannelRows, f64)>>> =
                                 rows.into_iter().map(|r| Some(r).into()).collect();
-                            fit_with(ds, o, |c| rows[c].take().expect("each channel taken once"))
+                            fit_with(
+                                ds,
+                                o,
+                                |c| rows[c].take().expect("each channel taken once"),
+                                &|c, started| step(o, c, started),
+                            )
                         }
                         None => {
                             let (_, rows) = shared
                                 .iter()
                                 .find(|(k, _)| *k == key(o))
                                 .expect("every geometry computed above");
-                            fit_with(ds, o, |c| rows[c].clone())
+                            fit_with(ds, o, |c| rows[c].clone(), &|c, started| {
+                                step(o, c, started)
+                            })
                         }
                     };
                     *slot.lock().expect("no fit panics") = Some(f);
@@ -691,14 +745,19 @@ type ChannelGeometries = Vec<(ChannelRows, f64)>;
 /// One entry's fits of [`fit_models`], or its error.
 type FitsOrError = Result<Vec<FitResult>, FitError>;
 
-/// The relative cost of a fit of `o` on real data (the measured order on MERL alumina-oxide,
-/// larger is dearer), so [`fit_models`] starts the dearest first.
-fn work_rank(o: &FitOptions) -> u8 {
+/// The relative cost of a fit of `o` on real data, larger is dearer: [`fit_models`] starts
+/// the dearest first and counts a fit's progress in these units. Seconds per channel of a full
+/// MERL table (steel, 1,096,216 rows, `fit --model all`, the tenth round's binary: lambert
+/// 0.18, phong 0.35, blinn-phong 0.31, Torrance–Sparrow d3 0.85, d2 1.3, d1 1.5, abc 2.1,
+/// ggx-smith 0.78, ggx-smith-2 4.1–12.6) over lambert's, rounded, with the order measured on
+/// MERL alumina-oxide's 16,512 rows where the two differ (phong and blinn-phong dearer than
+/// d3 and ggx-smith there).
+pub(crate) fn work_weight(o: &FitOptions) -> u64 {
     match (o.kind, o.dist) {
-        (ModelKind::GgxSmith2, _) => 8,
-        (ModelKind::TorranceSparrow, Distribution::Abc) => 7,
-        (ModelKind::TorranceSparrow, Distribution::D1) => 6,
-        (ModelKind::TorranceSparrow, Distribution::D2) => 5,
+        (ModelKind::GgxSmith2, _) => 40,
+        (ModelKind::TorranceSparrow, Distribution::Abc) => 12,
+        (ModelKind::TorranceSparrow, Distribution::D1) => 8,
+        (ModelKind::TorranceSparrow, Distribution::D2) => 7,
         (ModelKind::Phong | ModelKind::BlinnPhong, _) => 4,
         (ModelKind::TorranceSparrow, Distribution::D3) => 3,
         (ModelKind::GgxSmith, _) => 2,
