@@ -768,6 +768,12 @@ pub fn choose(
     choose_with(ds, cases, opts, &[], progress)
 }
 
+/// How many progress lines [`choose_with`] gives for `cases`: one per candidate's global fit,
+/// the resampling, then per case its reference, its cross-validation and each candidate.
+pub fn progress_steps(cases: &[Case], opts: &ChooseOptions) -> usize {
+    opts.candidates.len() + 1 + cases.len() * (2 + opts.candidates.len())
+}
+
 /// [`choose`] reusing fits of `ds` made already (the report's model comparison): a candidate
 /// with a fit in `fitted` (same model and distribution, the default options, verified with at
 /// least `opts.verify` starts, one channel) takes it as its global fit instead of fitting
@@ -793,12 +799,27 @@ pub fn choose_with(
                     .map_or(opts.verify == 0, |v| v.starts >= opts.verify)
         })
     };
+    // A progress line as each is done (a full MERL table's take up to 30 s together).
     let global = opts
         .candidates
         .par_iter()
-        .map(|&(kind, dist)| match reuse(kind, dist) {
-            Some(f) => Ok(f.clone()),
-            None => fit_one(ds, kind, dist, opts.verify),
+        .map(|&(kind, dist)| {
+            let f = match reuse(kind, dist) {
+                Some(f) => {
+                    progress(&format!("{}: global fit taken as given", kind.label(dist)));
+                    f.clone()
+                }
+                None => {
+                    let f = fit_one(ds, kind, dist, opts.verify)?;
+                    progress(&format!(
+                        "{}: global fit in {:.2} s",
+                        kind.label(dist),
+                        f.seconds
+                    ));
+                    f
+                }
+            };
+            Ok(f)
         })
         .collect::<Result<Vec<_>, _>>()?;
     let reference = Reference::new(ds, &global);

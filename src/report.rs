@@ -780,9 +780,8 @@ fn scene_needs(doc: &mut Doc, set: &DataSet, fits: &[FitResult]) -> Result<Vec<S
     doc.h(3, "What each scene needs", &format!("{name}-choose"));
     let cases = crate::choose::fig7_cases(CHOOSE_RES);
     let opts = crate::choose::ChooseOptions::default();
-    // One progress line per step: the global fits, then per case its reference, its
-    // cross-validation and each candidate.
-    let steps = 1 + cases.len() * (2 + opts.candidates.len());
+    // One progress line per step (`choose::progress_steps`).
+    let steps = crate::choose::progress_steps(&cases, &opts);
     let done = std::sync::atomic::AtomicUsize::new(0);
     let (r, images) = crate::choose::choose_with(&set.ds, &cases, &opts, fits, &|m| {
         let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;

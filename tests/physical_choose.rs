@@ -78,11 +78,25 @@ fn opts() -> ChooseOptions {
 }
 
 /// Blinn's MgO: edge lit, the simple models' scene-weighted fits reach pd > 1 (issue 22: lambert
-/// pd 5.65, blinn-phong pd 3.34 at 512²) and are marked; Torrance–Sparrow is chosen.
+/// pd 5.65, blinn-phong pd 3.34 at 512²) and are marked; Torrance–Sparrow is chosen. On the
+/// way, the progress lines (a bar's steps) are as many as `progress_steps` says, one per
+/// candidate's global fit among them.
 #[test]
 fn blinn_mgo_edge_lit_marks_albedo_above_one() {
     let ds = common::load("data/blinn-mgo.csv");
-    let (r, _) = choose::choose(&ds, &fig7_cases(128), &opts(), &|_| {}).unwrap();
+    let lines = std::sync::Mutex::new(Vec::new());
+    let cases = fig7_cases(128);
+    let (r, _) = choose::choose(&ds, &cases, &opts(), &|l| {
+        lines.lock().unwrap().push(l.to_string())
+    })
+    .unwrap();
+    let lines = lines.into_inner().unwrap();
+    assert_eq!(lines.len(), choose::progress_steps(&cases, &opts()));
+    for (kind, dist) in opts().candidates {
+        let global = format!("{}: global fit in ", kind.label(dist));
+        let n = lines.iter().filter(|l| l.starts_with(&global)).count();
+        assert_eq!(n, 1, "{global}: {lines:#?}");
+    }
     let marked = check(&r);
     let edge = r.cases.iter().find(|c| c.case == "edge").unwrap();
     let lambert = edge.models.iter().find(|m| m.model == "lambert").unwrap();

@@ -117,10 +117,9 @@ pub(crate) fn run_choose(a: ChooseArgs) -> Result<()> {
         verify: a.verify,
         ..Default::default()
     };
-    // One step per progress line: the global fits, then per case its reference, its
-    // cross-validation and each candidate. On a terminal the lines scroll above a bar with
-    // the time left.
-    let steps = 1 + cases.len() * (2 + opts.candidates.len());
+    // One step per progress line (`choose::progress_steps`). On a terminal the lines scroll
+    // above a bar with the time left.
+    let steps = choose::progress_steps(&cases, &opts);
     let bar = progress_bar(steps as u64, "global fits of every model");
     let (result, images) = choose::choose(&ds, &cases, &opts, &|line| {
         if bar.is_hidden() {
