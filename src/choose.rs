@@ -769,9 +769,10 @@ pub fn choose(
 }
 
 /// How many progress lines [`choose_with`] gives for `cases`: one per candidate's global fit,
-/// the resampling, then per case its reference, its cross-validation and each candidate.
+/// two for the resampling (as it starts and as it ends), then per case its reference, its
+/// cross-validation and each candidate.
 pub fn progress_steps(cases: &[Case], opts: &ChooseOptions) -> usize {
-    opts.candidates.len() + 1 + cases.len() * (2 + opts.candidates.len())
+    opts.candidates.len() + 2 + cases.len() * (2 + opts.candidates.len())
 }
 
 /// [`choose`] reusing fits of `ds` made already (the report's model comparison): a candidate
@@ -822,6 +823,7 @@ pub fn choose_with(
             Ok(f)
         })
         .collect::<Result<Vec<_>, _>>()?;
+    progress("resampling the measurement and refitting its cross-validation folds");
     let reference = Reference::new(ds, &global);
     let r = &reference;
     progress(&format!(

@@ -494,15 +494,22 @@ fn model_comparison(
     tm: &mut serde_json::Map<String, Value>,
 ) -> Result<(Vec<FitResult>, usize, Option<String>)> {
     let (ds, name) = (&set.ds, &set.name);
-    // Every model in parallel (each fit is deterministic, so the order of work is free).
+    // Every model in parallel (each fit is deterministic, so the order of work is free); a
+    // step as each ends (a full MERL table's take about 30 s together).
     let t = Instant::now();
-    let fits: Vec<FitResult> = fit::all_models()
-        .into_par_iter()
-        .map(|(k, d)| {
+    let models = fit::all_models();
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let fits: Vec<FitResult> = models
+        .par_iter()
+        .map(|&(k, d)| {
             let mut o = FitOptions::new(k);
             o.dist = d;
             o.verify = REPORT_VERIFY;
-            fit::fit(ds, &o).map(|mut v| v.remove(0))
+            let f = fit::fit(ds, &o).map(|mut v| v.remove(0));
+            let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            let part = n as f64 / models.len() as f64;
+            step_at(set, 1, part, &format!("fitting: {} done", k.label(d)));
+            f
         })
         .collect::<std::result::Result<_, _>>()
         .with_context(|| format!("fitting {}", file.display()))?;
