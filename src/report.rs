@@ -930,7 +930,8 @@ fn studies(
     let reference = truth
         .filter(|m| m.kind == ModelKind::TorranceSparrow)
         .unwrap_or(m);
-    step(set, 5, "studies: stability from random starts");
+    // The stability study is the second half of the stage (the speed study's steps end at 0.5).
+    step_at(set, 5, 0.5, "studies: stability from random starts");
     let configurations = std::sync::atomic::AtomicUsize::new(0);
     let srows = study::stability_with_progress(&reference, opts.stability_starts, 600, 1, &|| {
         let k = configurations.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;

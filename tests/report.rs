@@ -3,11 +3,21 @@
 
 use std::path::{Path, PathBuf};
 
-fn run(out: &Path) {
+/// The report of two bundled files into `out`; with `record`, its progress calls (done, total,
+/// message) in the order made.
+fn run(out: &Path, record: bool) -> Vec<(u64, u64, String)> {
+    use std::sync::{Arc, Mutex};
     let files = vec![
         PathBuf::from("data/blinn-mgo.csv"),
         PathBuf::from("data/cayman.astm"),
     ];
+    let calls = Arc::new(Mutex::new(Vec::new()));
+    let sink = calls.clone();
+    let progress = record.then(|| {
+        brdfit::report::Progress(Arc::new(move |done, total, what: &str| {
+            sink.lock().unwrap().push((done, total, what.to_string()))
+        }))
+    });
     brdfit::report::report(
         &files,
         &brdfit::report::ReportOptions {
@@ -15,10 +25,12 @@ fn run(out: &Path) {
             stability_starts: 1,
             render_res: 32,
             verbose: false,
-            progress: None,
+            progress,
         },
     )
     .unwrap();
+    let calls = calls.lock().unwrap().clone();
+    calls
 }
 
 fn links(html: &str) -> Vec<String> {
@@ -58,8 +70,33 @@ fn tree(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
 fn report_links_are_valid_and_output_is_reproducible() {
     let a = tempfile::tempdir().unwrap();
     let b = tempfile::tempdir().unwrap();
-    run(a.path());
-    run(b.path());
+    // The first with a progress hook (the files must not depend on it), the second without.
+    let calls = run(a.path(), true);
+    run(b.path(), false);
+    // The studies' stage in order: the stability study starts where the speed study's steps
+    // ended, not back at the stage's start (the bar fell from 79 % to 61 % there).
+    for file in ["blinn-mgo", "cayman"] {
+        let at = |what: &str| -> Vec<u64> {
+            calls
+                .iter()
+                .filter(|c| c.2.starts_with(&format!("{file}: studies: {what}")))
+                .map(|c| c.0)
+                .collect()
+        };
+        let (speed, stability) = (at("speed against accuracy"), at("stability"));
+        assert!(
+            speed.len() > 10 && !stability.is_empty(),
+            "{file}: {calls:?}"
+        );
+        assert!(
+            stability[0] >= *speed.iter().max().unwrap(),
+            "{file}: stability starts at {} after the speed study reached {:?}",
+            stability[0],
+            speed.iter().max()
+        );
+    }
+    let total = calls[0].1;
+    assert!(calls.iter().all(|c| c.1 == total && c.0 <= total));
     let html = std::fs::read_to_string(a.path().join("index.html")).unwrap();
     assert!(!html.contains("<script") && !html.contains("http://") && !html.contains("https://"));
     let ls = links(&html);

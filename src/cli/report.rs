@@ -28,9 +28,14 @@ pub(crate) fn run_report(
     let bar = progress_bar(1, "report");
     let progress = (!bar.is_hidden()).then(|| {
         let bar = bar.clone();
+        // Steps run in parallel report as they end, not always in order: the bar never moves
+        // back (the furthest position so far, under a lock).
+        let furthest = std::sync::Mutex::new(0u64);
         brdfit::report::Progress(std::sync::Arc::new(move |done, total, what: &str| {
+            let mut at = furthest.lock().expect("no progress hook panics");
+            *at = (*at).max(done);
             bar.set_length(total);
-            bar.set_position(done);
+            bar.set_position(*at);
             bar.set_message(what.to_string());
         }))
     });
