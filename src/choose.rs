@@ -768,11 +768,19 @@ pub fn choose(
     choose_with(ds, cases, opts, &[], progress)
 }
 
-/// How many progress lines [`choose_with`] gives for `cases`: one per candidate's global fit,
-/// two for the resampling (as it starts and as it ends), then per case its reference, its
-/// cross-validation and each candidate.
-pub fn progress_steps(cases: &[Case], opts: &ChooseOptions) -> usize {
-    opts.candidates.len() + 2 + cases.len() * (2 + opts.candidates.len())
+/// How many progress lines [`choose_with`] gives for `ds` and `cases`: one per candidate's
+/// global fit; for the resampling, one as it starts, one for the resampling base's fit when
+/// no candidate is Torrance–Sparrow (ABC), one as the table is rebuilt, one per
+/// cross-validation fold ([`verdict::fold_count`]) and one as it ends; then per case its
+/// reference, its cross-validation and each candidate.
+pub fn progress_steps(ds: &Dataset, cases: &[Case], opts: &ChooseOptions) -> usize {
+    let abc = (ModelKind::TorranceSparrow, Distribution::Abc);
+    let base_fit = usize::from(!opts.candidates.contains(&abc));
+    opts.candidates.len()
+        + 3
+        + base_fit
+        + verdict::fold_count(ds)
+        + cases.len() * (2 + opts.candidates.len())
 }
 
 /// [`choose`] reusing fits of `ds` made already (the report's model comparison): a candidate
@@ -824,7 +832,7 @@ pub fn choose_with(
         })
         .collect::<Result<Vec<_>, _>>()?;
     progress("resampling the measurement and refitting its cross-validation folds");
-    let reference = Reference::new(ds, &global);
+    let reference = Reference::new(ds, &global, progress);
     let r = &reference;
     progress(&format!(
         "resampled {} samples onto a {}×{}×{} table in {:.2} s; {:.1} % of cells filled from {}; \
@@ -885,12 +893,19 @@ impl Reference {
     /// Resample `ds` on the lowest-BIC usable model among the global fits and a
     /// Torrance–Sparrow fit with Löw et al.'s ABC distribution (the better the base model,
     /// the flatter the ratio the table interpolates).
-    fn new(ds: &Dataset, global: &[FitResult]) -> Reference {
+    /// `progress` is called as the base's own fit ends (when it is not among `global`), as
+    /// the table is rebuilt and as each cross-validation fold is (see [`progress_steps`]).
+    fn new(ds: &Dataset, global: &[FitResult], progress: &(dyn Fn(&str) + Sync)) -> Reference {
         let abc = (ModelKind::TorranceSparrow, Distribution::Abc);
         let extra = if global.iter().any(|g| (g.model, g.dist) == abc) {
             None
         } else {
-            fit_one(ds, abc.0, abc.1, 0).ok()
+            let f = fit_one(ds, abc.0, abc.1, 0).ok();
+            progress(&format!(
+                "{}: fitted as a base of the resampling",
+                abc.0.label(abc.1)
+            ));
+            f
         };
         let bases: Vec<&FitResult> = global.iter().chain(extra.as_ref()).collect();
         let best = (0..bases.len())
@@ -905,11 +920,12 @@ impl Reference {
             || {
                 let t = Instant::now();
                 let table = Arc::new(crate::render::reconstruct::reconstruct(ds, dims, fill));
+                progress("resampled table rebuilt from every sample");
                 (table, t.elapsed().as_secs_f64())
             },
             || {
                 let t = Instant::now();
-                let folds = verdict::folds(ds, dims, (base.model, base.dist), fill);
+                let folds = verdict::folds(ds, dims, (base.model, base.dist), fill, progress);
                 (folds, t.elapsed().as_secs_f64())
             },
         );

@@ -496,23 +496,29 @@ fn model_comparison(
     let (ds, name) = (&set.ds, &set.name);
     // Every model in parallel (each fit is deterministic, so the order of work is free); a
     // step as each ends (a full MERL table's take about 30 s together).
+    // Every fit counts its passes over the data in one watch, shown as it grows.
     let t = Instant::now();
     let models = fit::all_models();
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let fits: Vec<FitResult> = models
-        .par_iter()
-        .map(|&(k, d)| {
-            let mut o = FitOptions::new(k);
-            o.dist = d;
-            o.verify = REPORT_VERIFY;
-            let f = fit::fit(ds, &o).map(|mut v| v.remove(0));
-            let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-            let part = n as f64 / models.len() as f64;
-            step_at(set, 1, part, &format!("fitting: {} done", k.label(d)));
-            f
-        })
-        .collect::<std::result::Result<_, _>>()
-        .with_context(|| format!("fitting {}", file.display()))?;
+    let watch = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let share = || done.load(std::sync::atomic::Ordering::Relaxed) as f64 / models.len() as f64;
+    let tick = |k: usize| step_at(set, 1, share(), &format!("fitting: {k} evaluations in all"));
+    let fits: Vec<FitResult> = fit::ticking(&watch, &tick, || {
+        models
+            .par_iter()
+            .map(|&(k, d)| {
+                let mut o = FitOptions::new(k);
+                o.dist = d;
+                o.verify = REPORT_VERIFY;
+                o.watch = Some(watch.clone());
+                let f = fit::fit(ds, &o).map(|mut v| v.remove(0));
+                done.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                step_at(set, 1, share(), &format!("fitting: {} done", k.label(d)));
+                f
+            })
+            .collect::<std::result::Result<_, _>>()
+    })
+    .with_context(|| format!("fitting {}", file.display()))?;
     // timings.json: the step's wall time like every other entry, and each model's own clock
     // (the models run in parallel, so these add up to more than the wall time).
     tm.insert("fits".into(), json!(t.elapsed().as_secs_f64()));
@@ -701,12 +707,22 @@ fn plots(doc: &mut Doc, set: &DataSet, fits: &[FitResult], ts_i: usize, rec: usi
         ),
     );
     doc.p(&lobe_takeaway(&chart));
+    // A step per chart (a full MERL table's million residuals take seconds to draw).
     let pts = plot::residual_points(ds, 0, &ts.model_for(0), true);
-    for (file_name, chart) in plot::residual_charts(&ts.label(), &pts) {
-        let (png, svg) = save_chart(&chart, root, &format!("{dir}/{file_name}"))?;
+    let charts = plot::residual_charts(&ts.label(), &pts);
+    for (i, (file_name, chart)) in charts.iter().enumerate() {
+        let part = (1 + i) as f64 / (2 + charts.len()) as f64;
+        step_at(set, 2, part, &format!("plots: {file_name}"));
+        let (png, svg) = save_chart(chart, root, &format!("{dir}/{file_name}"))?;
         doc.figure(&png, Some(&svg), &chart.title);
-        doc.p(&residual_takeaway(&chart));
+        doc.p(&residual_takeaway(chart));
     }
+    step_at(
+        set,
+        2,
+        (1 + charts.len()) as f64 / (2 + charts.len()) as f64,
+        "plots: albedo",
+    );
     let measured = plot::measured_albedo(ds, 0);
     let (chart, apts) = plot::albedo_chart(&ts.label(), &ts.model_for(0), &measured);
     let (png, svg) = save_chart(&chart, root, &format!("{dir}/albedo"))?;
@@ -788,7 +804,7 @@ fn scene_needs(doc: &mut Doc, set: &DataSet, fits: &[FitResult]) -> Result<Vec<S
     let cases = crate::choose::fig7_cases(CHOOSE_RES);
     let opts = crate::choose::ChooseOptions::default();
     // One progress line per step (`choose::progress_steps`).
-    let steps = crate::choose::progress_steps(&cases, &opts);
+    let steps = crate::choose::progress_steps(&set.ds, &cases, &opts);
     let done = std::sync::atomic::AtomicUsize::new(0);
     let (r, images) = crate::choose::choose_with(&set.ds, &cases, &opts, fits, &|m| {
         let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;

@@ -16,6 +16,7 @@ use crate::simulate::{Grid, simulate};
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use std::fmt::Write;
+use std::sync::atomic::AtomicUsize;
 
 /// The model a synthetic file was made from, from its `truth:` comment (written by
 /// `brdfit simulate`), if any.
@@ -82,12 +83,14 @@ pub fn speed_accuracy(ds: &Dataset, truth: Option<&Model>, repeats: usize) -> Ve
 }
 
 /// [`speed_accuracy`], calling `progress(done, total, what)` before each method × model
-/// (`what` names them) and once at the end (`done == total`).
+/// (`what` names them), every [`fit::TICK`] while it runs (`what` then counts its passes over the
+/// data so far: on a full MERL table one argmin Nelder–Mead run takes 15 s) and once at the
+/// end (`done == total`).
 pub fn speed_accuracy_with_progress(
     ds: &Dataset,
     truth: Option<&Model>,
     repeats: usize,
-    progress: &dyn Fn(usize, usize, &str),
+    progress: &(dyn Fn(usize, usize, &str) + Sync),
 ) -> Vec<SpeedRow> {
     // A solver that runs once shows its budget on the solvers' comparison model,
     // Torrance–Sparrow (D3), alone: it is no model's best.
@@ -100,12 +103,11 @@ pub fn speed_accuracy_with_progress(
         .collect();
     let mut rows = Vec::new();
     for (i, &(method, (kind, dist))) in runs.iter().enumerate() {
-        progress(
-            i,
-            runs.len(),
-            &format!("{} on {}", method.name(), kind.label(dist)),
-        );
+        let what = format!("{} on {}", method.name(), kind.label(dist));
+        progress(i, runs.len(), &what);
+        let watch = std::sync::Arc::new(AtomicUsize::new(0));
         let mut o = FitOptions::new(kind);
+        o.watch = Some(watch.clone());
         o.dist = dist;
         o.method = method;
         o.profile = false;
@@ -117,16 +119,19 @@ pub fn speed_accuracy_with_progress(
         }
         let mut times = Vec::new();
         let mut last = None;
-        for _ in 0..repeats.max(1) {
-            match fit::fit(ds, &o) {
-                Ok(mut f) => {
-                    let f = f.remove(0);
-                    times.push(f.seconds);
-                    last = Some(f);
+        let tick = |k: usize| progress(i, runs.len(), &format!("{what}: {k} evaluations"));
+        fit::ticking(&watch, &tick, || {
+            for _ in 0..repeats.max(1) {
+                match fit::fit(ds, &o) {
+                    Ok(mut f) => {
+                        let f = f.remove(0);
+                        times.push(f.seconds);
+                        last = Some(f);
+                    }
+                    Err(_) => break,
                 }
-                Err(_) => break,
             }
-        }
+        });
         let Some(f) = last else { continue };
         times.sort_by(f64::total_cmp);
         let param_error = truth.filter(|t| t.kind == kind && t.dist == dist).map(|t| {

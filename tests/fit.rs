@@ -177,6 +177,7 @@ fn small_problem(loss: Loss) -> BrdfProblem {
             ]
         },
         loss,
+        watch: None,
     }
 }
 

@@ -82,7 +82,22 @@ fn progress_names_each_fit_while_it_runs_and_ends_at_the_total() {
     {
         assert_eq!(untimed(a), untimed(b));
     }
-    let calls = calls.into_inner().unwrap();
+    // Every 0.25 s while the fits run, a tick counts the passes over the data so far: the
+    // work done as the last step left it, the count growing.
+    let (ticks, calls): (Vec<_>, Vec<_>) = calls
+        .into_inner()
+        .unwrap()
+        .into_iter()
+        .partition(|c| c.2.ends_with(" evaluations in all"));
+    let counts: Vec<usize> = ticks
+        .iter()
+        .map(|t| {
+            let words = t.2.trim_end_matches(" evaluations in all");
+            words.rsplit(' ').next().unwrap().parse().unwrap()
+        })
+        .collect();
+    assert!(counts.windows(2).all(|w| w[0] <= w[1]), "{ticks:?}");
+    assert!(counts.iter().all(|&k| k > 0), "{ticks:?}");
     // 9 models × 3 channels, and the joint fit once, in each of the two runs; a start and an end each.
     assert_eq!(calls.len(), 2 * repeat * (opts.len() - 1) * 3 + 2 * repeat);
     let total = calls[0].1;
@@ -138,4 +153,59 @@ fn albedos_in_parallel_equal_each_angle_alone() {
             directional_albedo(&m, t.to_radians()).to_bits()
         );
     }
+}
+
+/// `ticking` calls its tick from another thread while the work runs, with the count's value
+/// (the work here waits for the first tick, so the test does not depend on the clock), and
+/// stops: after a panic in the work too, which it passes on.
+#[test]
+fn ticking_reports_the_count_while_work_runs_and_stops_after_a_panic() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::mpsc;
+    let count = AtomicUsize::new(0);
+    let (tx, rx) = mpsc::channel::<usize>();
+    let tx = std::sync::Mutex::new(tx);
+    let tick = |k: usize| {
+        let _ = tx.lock().unwrap().send(k);
+    };
+    let out = fit::ticking(&count, &tick, || {
+        count.store(7, Ordering::Relaxed);
+        rx.recv_timeout(std::time::Duration::from_secs(60))
+            .expect("a tick within a minute")
+    });
+    assert_eq!(out, 7);
+    // Work that panics: the panic comes back out, the ticker stopped (no hang).
+    let quiet = AtomicUsize::new(0);
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        fit::ticking(&quiet, &|_| {}, || -> usize { panic!("work failed") })
+    }));
+    assert!(r.is_err());
+}
+
+/// A fit's watch counts every pass over the data: a local fit without profiles or
+/// verification on fewer than 2,000 samples per channel (no subsample, so no check of the
+/// start's cost on every sample) makes exactly the evaluations its results report (the
+/// statistics reuse the solver's last normal equations), every channel adding to one watch;
+/// a default fit on 10,000 samples at least as many.
+#[test]
+fn the_watch_counts_every_pass_over_the_data() {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let small = load("data/cayman.astm");
+    let mut o = FitOptions::new(brdfit::model::ModelKind::TorranceSparrow);
+    o.local_only = true;
+    o.profile = false;
+    let watch = Arc::new(AtomicUsize::new(0));
+    o.watch = Some(watch.clone());
+    let fits = fit::fit(&small, &o).unwrap();
+    let reported: usize = fits.iter().map(|f| f.evaluations).sum();
+    assert!(reported > 3 * fits.len(), "{reported}");
+    assert_eq!(watch.load(Ordering::Relaxed), reported);
+    let ds = load("data/blinn-mgo.csv");
+    let mut d = FitOptions::new(brdfit::model::ModelKind::TorranceSparrow);
+    let all = Arc::new(AtomicUsize::new(0));
+    d.watch = Some(all.clone());
+    d.verify = 2;
+    let g = fit::fit(&ds, &d).unwrap().remove(0);
+    assert!(all.load(Ordering::Relaxed) >= g.evaluations);
 }

@@ -80,7 +80,9 @@ fn opts() -> ChooseOptions {
 /// Blinn's MgO: edge lit, the simple models' scene-weighted fits reach pd > 1 (issue 22: lambert
 /// pd 5.65, blinn-phong pd 3.34 at 512²) and are marked; Torrance–Sparrow is chosen. On the
 /// way, the progress lines (a bar's steps) are as many as `progress_steps` says, one per
-/// candidate's global fit among them.
+/// candidate's global fit among them, and one per cross-validation fold: the 10,000 samples
+/// are scattered (no θi or azimuth slices), so two folds, without the even and the odd
+/// samples.
 #[test]
 fn blinn_mgo_edge_lit_marks_albedo_above_one() {
     let ds = common::load("data/blinn-mgo.csv");
@@ -91,7 +93,18 @@ fn blinn_mgo_edge_lit_marks_albedo_above_one() {
     })
     .unwrap();
     let lines = lines.into_inner().unwrap();
-    assert_eq!(lines.len(), choose::progress_steps(&cases, &opts()));
+    assert_eq!(lines.len(), choose::progress_steps(&ds, &cases, &opts()));
+    let folds: Vec<&String> = lines
+        .iter()
+        .filter(|l| l.starts_with("cross-validation fold refitted and rebuilt"))
+        .collect();
+    assert_eq!(folds.len(), 2, "{lines:#?}");
+    assert!(folds.iter().any(|l| l.contains("(even)")), "{folds:?}");
+    assert!(folds.iter().any(|l| l.contains("(odd)")), "{folds:?}");
+    let table = lines
+        .iter()
+        .filter(|l| l.starts_with("resampled table rebuilt"));
+    assert_eq!(table.count(), 1, "{lines:#?}");
     for (kind, dist) in opts().candidates {
         let global = format!("{}: global fit in ", kind.label(dist));
         let n = lines.iter().filter(|l| l.starts_with(&global)).count();

@@ -94,12 +94,14 @@ fn azimuth(ds: &Dataset, k: usize) -> f64 {
     (ds.phi_o[k] - ds.phi_i[k]).rem_euclid(std::f64::consts::TAU)
 }
 
+/// Which rows of a dataset a fold keeps.
+type Keep<'a> = Box<dyn Fn(usize) -> bool + Sync + 'a>;
+
 /// The subsets a cross-validation rebuilds from, with their names: without alternate
 /// interior θi slices, without the last θi slice and θo (extrapolation) and without alternate
 /// azimuth slices when the data come in such slices, else without alternate samples.
 pub fn fold_sets(ds: &Dataset) -> Vec<(String, FoldKind, Dataset)> {
-    let key = |x: f64| (x.to_degrees() * 100.0).round() as i64;
-    let subset = |keep: &dyn Fn(usize) -> bool| {
+    let subset = |keep: &Keep| {
         let mut out = ds.clone();
         let idx: Vec<usize> = (0..ds.len()).filter(|&k| keep(k)).collect();
         let pick = |v: &[f64]| idx.iter().map(|&k| v[k]).collect::<Vec<_>>();
@@ -113,7 +115,24 @@ pub fn fold_sets(ds: &Dataset) -> Vec<(String, FoldKind, Dataset)> {
         out.weights = ds.weights.as_deref().map(pick);
         out
     };
-    let mut out = Vec::new();
+    fold_plan(ds)
+        .into_iter()
+        .map(|(name, kind, keep)| {
+            let sub = subset(&keep);
+            (name, kind, sub)
+        })
+        .collect()
+}
+
+/// How many folds [`fold_sets`] makes of `ds` (without making them).
+pub fn fold_count(ds: &Dataset) -> usize {
+    fold_plan(ds).len()
+}
+
+/// [`fold_sets`]'s folds as names, kinds and the rows each keeps.
+fn fold_plan(ds: &Dataset) -> Vec<(String, FoldKind, Keep<'_>)> {
+    let key = |x: f64| (x.to_degrees() * 100.0).round() as i64;
+    let mut out: Vec<(String, FoldKind, Keep)> = Vec::new();
     if let Some(ti) = slices(ds.theta_i.iter().copied()) {
         // Alternate interior slices: the first and last are kept, so the fold interpolates
         // at twice the spacing where the reference interpolates, and extrapolates no farther
@@ -137,7 +156,7 @@ pub fn fold_sets(ds: &Dataset) -> Vec<(String, FoldKind, Dataset)> {
             out.push((
                 format!("without θi = {words}°"),
                 FoldKind::ThetaI,
-                subset(&|k| !drop.contains(&key(ds.theta_i[k]))),
+                Box::new(move |k| !drop.contains(&key(ds.theta_i[k]))),
             ));
         }
     }
@@ -159,7 +178,7 @@ pub fn fold_sets(ds: &Dataset) -> Vec<(String, FoldKind, Dataset)> {
                 cut.to_degrees()
             ),
             FoldKind::Extrapolation,
-            subset(&|k| key(ds.theta_i[k]) != last && ds.theta_o[k] <= cut + 1e-9),
+            Box::new(move |k| key(ds.theta_i[k]) != last && ds.theta_o[k] <= cut + 1e-9),
         ));
     }
     if let Some(ph) = slices((0..ds.len()).map(|k| azimuth(ds, k))) {
@@ -172,7 +191,7 @@ pub fn fold_sets(ds: &Dataset) -> Vec<(String, FoldKind, Dataset)> {
                     ph.len()
                 ),
                 FoldKind::Azimuth,
-                subset(&|k| !drop.contains(&key(azimuth(ds, k)))),
+                Box::new(move |k| !drop.contains(&key(azimuth(ds, k)))),
             ));
         }
     }
@@ -181,16 +200,16 @@ pub fn fold_sets(ds: &Dataset) -> Vec<(String, FoldKind, Dataset)> {
             out.push((
                 format!("without alternate samples ({})", ["even", "odd"][parity]),
                 FoldKind::Samples,
-                subset(&|k| k % 2 != parity),
+                Box::new(move |k| k % 2 != parity),
             ));
         }
     }
     out
 }
 
-/// The cross-validation folds of `ds` ([`fold_sets`]), in parallel: each subset's own fit of
-/// the base model (`kind`, `dist`; the full data's `fill` where that fit fails or is not
-/// usable), and the subset rebuilt on it ([`crate::render::reconstruct::reconstruct`]) on a
+/// The cross-validation folds of `ds` ([`fold_sets`]), in parallel, `progress` called as each
+/// ends: each subset's own fit of the base model (`kind`, `dist`; the full data's `fill` where
+/// that fit fails or is not usable), and the subset rebuilt on it ([`crate::render::reconstruct::reconstruct`]) on a
 /// table of `dims`. The base is refitted so that a fold knows nothing of the samples it
 /// leaves out: the full data's fit would carry them into the fold's reconstruction, and the
 /// fold would differ from the reference less than the reference from the truth.
@@ -199,6 +218,7 @@ pub fn folds(
     dims: crate::render::measured::Dims,
     (kind, dist): (crate::model::ModelKind, crate::model::Distribution),
     fill: crate::model::Model,
+    progress: &(dyn Fn(&str) + Sync),
 ) -> Vec<Fold> {
     use rayon::prelude::*;
     fold_sets(ds)
@@ -208,10 +228,14 @@ pub fn folds(
                 .ok()
                 .filter(|r| r.usable())
                 .map_or(fill, |r| r.model_for(0));
+            let table = Arc::new(crate::render::reconstruct::reconstruct(&sub, dims, base));
+            progress(&format!(
+                "cross-validation fold refitted and rebuilt ({name})"
+            ));
             Fold {
                 name,
                 kind: kind_of_fold,
-                table: Arc::new(crate::render::reconstruct::reconstruct(&sub, dims, base)),
+                table,
             }
         })
         .collect()

@@ -119,7 +119,7 @@ pub(crate) fn run_choose(a: ChooseArgs) -> Result<()> {
     };
     // One step per progress line (`choose::progress_steps`). On a terminal the lines scroll
     // above a bar with the time left.
-    let steps = choose::progress_steps(&cases, &opts);
+    let steps = choose::progress_steps(&ds, &cases, &opts);
     let bar = progress_bar(steps as u64, "global fits of every model");
     let (result, images) = choose::choose(&ds, &cases, &opts, &|line| {
         if bar.is_hidden() {

@@ -48,6 +48,7 @@ pub use lsq::{Limits, Method};
 use lsq::{Problem, Robust, Solution};
 pub use problem::Loss;
 use problem::{BrdfProblem, Rows, Slot, Transform};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Instant;
 
 use checks::certify;
@@ -157,6 +158,9 @@ pub struct FitOptions {
     pub verify: usize,
     /// Seed of the verification starts.
     pub seed: u64,
+    /// Counts the fit's passes over the data as they start (every solver's, the statistics'
+    /// too), for a progress display to read while a long fit goes on.
+    pub watch: Option<std::sync::Arc<std::sync::atomic::AtomicUsize>>,
 }
 
 impl FitOptions {
@@ -179,6 +183,7 @@ impl FitOptions {
             profile: true,
             verify: 0,
             seed: 1,
+            watch: None,
         }
     }
 }
@@ -613,6 +618,44 @@ pub fn fit_models(
     fit_models_with_progress(ds, opts, repeat, &|_, _, _| {})
 }
 
+/// How often [`ticking`] reports a count while work goes on.
+pub const TICK: std::time::Duration = std::time::Duration::from_millis(250);
+
+/// Run `work`, calling `tick(count)` from another thread every [`TICK`] with `count`'s value
+/// while it runs, once it is above 0 (a fit's passes over the data: [`FitOptions::watch`]).
+/// The ticker stops as `work` ends, also by a panic.
+pub fn ticking<T>(
+    count: &AtomicUsize,
+    tick: &(dyn Fn(usize) + Sync),
+    work: impl FnOnce() -> T,
+) -> T {
+    /// Stops the ticker when dropped.
+    struct Stop<'a>(&'a AtomicBool, std::thread::Thread);
+    impl Drop for Stop<'_> {
+        fn drop(&mut self) {
+            self.0.store(true, Ordering::Release);
+            self.1.unpark();
+        }
+    }
+    let done = AtomicBool::new(false);
+    std::thread::scope(|s| {
+        let ticker = s.spawn(|| {
+            loop {
+                std::thread::park_timeout(TICK);
+                if done.load(Ordering::Acquire) {
+                    break;
+                }
+                let k = count.load(Ordering::Relaxed);
+                if k > 0 {
+                    tick(k);
+                }
+            }
+        });
+        let _stop = Stop(&done, ticker.thread().clone());
+        work()
+    })
+}
+
 /// [`fit_models`], calling `progress(done, total, running)` as each channel's fit of a model
 /// starts and ends: `done` of `total` units of work (each fit weighs [`work_weight`], its
 /// relative cost, so a bar's estimate of the time left holds while one dear fit runs for
@@ -648,9 +691,47 @@ pub fn fit_models_with_progress(
         };
         progress(now, total, &run.join(", "));
     };
-    let key = |o: &FitOptions| (o.loss, o.max_theta_deg.map(f64::to_bits), o.weights);
+    // Every fit counts its passes over the data in one watch, shown beside the fits running
+    // every [`TICK`]: the message moves while one dear fit runs for seconds.
+    let watch = std::sync::Arc::new(AtomicUsize::new(0));
+    let owned: Vec<FitOptions> = opts
+        .iter()
+        .map(|o| FitOptions {
+            watch: Some(watch.clone()),
+            ..o.clone()
+        })
+        .collect();
+    let opts = &owned[..];
+    let tick = |k: usize| {
+        let run = running.lock().expect("no progress hook panics");
+        let now = done.load(std::sync::atomic::Ordering::Relaxed);
+        progress(
+            now,
+            total,
+            &format!("{} · {k} evaluations in all", run.join(", ")),
+        );
+    };
     let mut runs: Vec<Vec<Vec<FitResult>>> = vec![Vec::new(); opts.len()];
     let mut walls = Vec::new();
+    ticking(&watch, &tick, || {
+        fit_runs(ds, opts, repeat, &step, &mut runs, &mut walls)
+    })?;
+    walls.sort_by(f64::total_cmp);
+    let fits = runs.into_iter().map(median_times).collect();
+    Ok((fits, walls[walls.len() / 2]))
+}
+
+/// The runs of [`fit_models_with_progress`]: each run's fits appended to `runs` (one list per
+/// entry of `opts`) and its wall time to `walls`; `step` as each channel's fit starts and ends.
+fn fit_runs(
+    ds: &Dataset,
+    opts: &[FitOptions],
+    repeat: usize,
+    step: &(dyn Fn(&FitOptions, Option<usize>, bool) + Sync),
+    runs: &mut [Vec<Vec<FitResult>>],
+    walls: &mut Vec<f64>,
+) -> Result<(), FitError> {
+    let key = |o: &FitOptions| (o.loss, o.max_theta_deg.map(f64::to_bits), o.weights);
     for _ in 0..repeat.max(1) {
         let t = Instant::now();
         // Each distinct geometry once per channel: (its key, each channel's rows and time).
@@ -734,9 +815,7 @@ pub fn fit_models_with_progress(
             run.push(f?);
         }
     }
-    walls.sort_by(f64::total_cmp);
-    let fits = runs.into_iter().map(median_times).collect();
-    Ok((fits, walls[walls.len() / 2]))
+    Ok(())
 }
 
 /// Each channel's rows and the seconds of their geometry pass.

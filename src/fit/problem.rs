@@ -513,6 +513,10 @@ pub struct BrdfProblem {
     pub transforms: Vec<Transform>,
     /// The loss.
     pub loss: Loss,
+    /// Counts every pass over the data as it starts (each evaluation of the cost, with or
+    /// without its normal equations; problems derived from this one count here too), for a
+    /// progress display to read while a long fit goes on ([`super::FitOptions::watch`]).
+    pub watch: Option<std::sync::Arc<std::sync::atomic::AtomicUsize>>,
 }
 
 /// Per-evaluation data: each channel's model and the chain factors dθ/du.
@@ -660,6 +664,9 @@ impl Problem for BrdfProblem {
     }
 
     fn prepare(&self, x: &[f64]) -> Option<Prepared> {
+        if let Some(w) = &self.watch {
+            w.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
         if x.iter().any(|v| !v.is_finite()) {
             return None;
         }

@@ -370,5 +370,6 @@ pub(super) fn problem(chans: Vec<ChannelRows>, lay: &Layout, opts: &FitOptions) 
         layout: lay.slots.clone(),
         transforms: lay.transforms.clone(),
         loss: opts.loss,
+        watch: opts.watch.clone(),
     }
 }
