@@ -194,6 +194,9 @@ pub struct ChooseOptions {
     pub threshold: Threshold,
     /// Random-start verification of every fit (see [`FitOptions::verify`]).
     pub verify: usize,
+    /// Counts every fit's passes over the data as they start ([`FitOptions::watch`]), for a
+    /// progress display to read while the fits run.
+    pub watch: Option<Arc<std::sync::atomic::AtomicUsize>>,
 }
 
 impl Default for ChooseOptions {
@@ -202,6 +205,7 @@ impl Default for ChooseOptions {
             candidates: RENDER_COST_ORDER.to_vec(),
             threshold: DEFAULT_THRESHOLD,
             verify: 4,
+            watch: None,
         }
     }
 }
@@ -487,13 +491,18 @@ fn fit_one(
     kind: ModelKind,
     dist: Distribution,
     verify: usize,
+    watch: Option<&Watch>,
 ) -> Result<FitResult, crate::fit::FitError> {
     let mut o = FitOptions::new(kind);
     o.dist = dist;
     o.verify = verify;
     o.profile = false;
+    o.watch = watch.cloned();
     Ok(fit(ds, &o)?.remove(0))
 }
+
+/// A count of passes over the data ([`FitOptions::watch`]).
+pub type Watch = Arc<std::sync::atomic::AtomicUsize>;
 
 /// The scene's exposure as a factor on f_r cosθi: the irradiance its lights give (green) at
 /// the point the camera looks at, facing each light; a pixel of the test object shows about
@@ -523,20 +532,21 @@ pub const PIXEL_STALL: (usize, f64) = (25, 1e-6);
 /// count (the samples' weights), and a local fit never ends above its start, so the result's
 /// pixel cost is never above the global fit's; a refinement stops where its cost stalls
 /// ([`PIXEL_STALL`]). The physical checks are made again on the result. The log-loss fit
-/// stands where both refinements fail.
+/// stands where both refinements fail. Every fit counts its passes over the data in `watch`.
 pub fn refit_on_pixels(
     ds: &Dataset,
     start: FitResult,
     global: &Model,
     exposure: f64,
     verify: usize,
+    watch: Option<&Watch>,
 ) -> FitResult {
     use crate::model::Role;
     // The log-loss fit is made unverified (only a start here): where it stands, it is
     // verified now.
     let fallback = |start: FitResult| {
         if verify > 0 && start.verification.is_none() {
-            fit_one(ds, start.model, start.dist, verify).unwrap_or(start)
+            fit_one(ds, start.model, start.dist, verify, watch).unwrap_or(start)
         } else {
             start
         }
@@ -563,6 +573,7 @@ pub fn refit_on_pixels(
         o.local_only = true;
         o.profile = false;
         o.verify = verify;
+        o.watch = watch.cloned();
         o.start = start;
         fit(&scaled, &o).ok().map(|mut f| f.remove(0))
     };
@@ -819,7 +830,7 @@ pub fn choose_with(
                     f.clone()
                 }
                 None => {
-                    let f = fit_one(ds, kind, dist, opts.verify)?;
+                    let f = fit_one(ds, kind, dist, opts.verify, opts.watch.as_ref())?;
                     progress(&format!(
                         "{}: global fit in {:.2} s",
                         kind.label(dist),
@@ -832,7 +843,7 @@ pub fn choose_with(
         })
         .collect::<Result<Vec<_>, _>>()?;
     progress("resampling the measurement and refitting its cross-validation folds");
-    let reference = Reference::new(ds, &global, progress);
+    let reference = Reference::new(ds, &global, progress, opts.watch.as_ref());
     let r = &reference;
     progress(&format!(
         "resampled {} samples onto a {}×{}×{} table in {:.2} s; {:.1} % of cells filled from {}; \
@@ -895,12 +906,18 @@ impl Reference {
     /// the flatter the ratio the table interpolates).
     /// `progress` is called as the base's own fit ends (when it is not among `global`), as
     /// the table is rebuilt and as each cross-validation fold is (see [`progress_steps`]).
-    fn new(ds: &Dataset, global: &[FitResult], progress: &(dyn Fn(&str) + Sync)) -> Reference {
+    /// Every fit counts its passes over the data in `watch`.
+    fn new(
+        ds: &Dataset,
+        global: &[FitResult],
+        progress: &(dyn Fn(&str) + Sync),
+        watch: Option<&Watch>,
+    ) -> Reference {
         let abc = (ModelKind::TorranceSparrow, Distribution::Abc);
         let extra = if global.iter().any(|g| (g.model, g.dist) == abc) {
             None
         } else {
-            let f = fit_one(ds, abc.0, abc.1, 0).ok();
+            let f = fit_one(ds, abc.0, abc.1, 0, watch).ok();
             progress(&format!(
                 "{}: fitted as a base of the resampling",
                 abc.0.label(abc.1)
@@ -925,7 +942,8 @@ impl Reference {
             },
             || {
                 let t = Instant::now();
-                let folds = verdict::folds(ds, dims, (base.model, base.dist), fill, progress);
+                let base = (base.model, base.dist);
+                let folds = verdict::folds(ds, dims, base, fill, progress, watch);
                 (folds, t.elapsed().as_secs_f64())
             },
         );
@@ -1150,9 +1168,10 @@ fn candidates(
                 global[k].clone()
             } else {
                 // The log-loss fit is only the refit's start: unverified (the refit is).
-                let log_fit = fit_one(samples, kind, dist, 0)?;
+                let log_fit = fit_one(samples, kind, dist, 0, opts.watch.as_ref())?;
                 let g = global[k].model_for(0);
-                refit_on_pixels(samples, log_fit, &g, exposure(&case.scene), opts.verify)
+                let e = exposure(&case.scene);
+                refit_on_pixels(samples, log_fit, &g, e, opts.verify, opts.watch.as_ref())
             };
             let fit_seconds = t.elapsed().as_secs_f64();
             // The two fits rendered and judged side by side.

@@ -802,14 +802,30 @@ fn scene_needs(doc: &mut Doc, set: &DataSet, fits: &[FitResult]) -> Result<Vec<S
     let (name, root, dir) = (&set.name, set.root, &set.name);
     doc.h(3, "What each scene needs", &format!("{name}-choose"));
     let cases = crate::choose::fig7_cases(CHOOSE_RES);
-    let opts = crate::choose::ChooseOptions::default();
-    // One progress line per step (`choose::progress_steps`).
+    let watch = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let opts = crate::choose::ChooseOptions {
+        watch: Some(watch.clone()),
+        ..Default::default()
+    };
+    // One progress line per step (`choose::progress_steps`), and every 0.25 s the fits'
+    // passes over the data so far beside the step last done.
     let steps = crate::choose::progress_steps(&set.ds, &cases, &opts);
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let (r, images) = crate::choose::choose_with(&set.ds, &cases, &opts, fits, &|m| {
-        let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-        step_at(set, 4, k as f64 / steps as f64, m)
-    })?;
+    let last = std::sync::Mutex::new(String::new());
+    let share = || done.load(std::sync::atomic::Ordering::Relaxed) as f64 / steps as f64;
+    let tick = |k: usize| {
+        let last = last.lock().expect("no progress hook panics");
+        step_at(set, 4, share(), &format!("{last} · {k} evaluations in all"));
+    };
+    let chosen = fit::ticking(&watch, &tick, || {
+        crate::choose::choose_with(&set.ds, &cases, &opts, fits, &|m| {
+            let mut last = last.lock().expect("no progress hook panics");
+            *last = m.to_string();
+            done.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            step_at(set, 4, share(), m)
+        })
+    });
+    let (r, images) = chosen?;
     let out = root.join(dir).join("choose");
     crate::choose::write(&out, &r, &images)?;
     doc.p(&format!(

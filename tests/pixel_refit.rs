@@ -76,7 +76,7 @@ fn scene_weighted_fit_is_never_worse_than_the_global_fit_in_pixels() {
                 o.dist = dist;
                 o.profile = false;
                 let log_fit = fit::fit(&samples, &o).unwrap().remove(0);
-                let r = refit_on_pixels(&samples, log_fit, global, e, 0);
+                let r = refit_on_pixels(&samples, log_fit, global, e, 0, None);
                 (
                     kind.label(dist),
                     pixel_cost(&samples, e, &r.model_for(0)),

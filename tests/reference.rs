@@ -285,7 +285,7 @@ fn measure_reference_quick() {
         let table = Arc::new(brdfit::render::reconstruct::reconstruct(&ds, dims, fill));
         let t_table = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let folds = brdfit::choose::folds(&ds, dims, kind, fill, &|_| {});
+        let folds = brdfit::choose::folds(&ds, dims, kind, fill, &|_| {}, None);
         let t_folds = t.elapsed().as_secs_f64();
         for (case, angle) in [("front", 15.0), ("edge", 95.0)] {
             let s = scene(angle, res);

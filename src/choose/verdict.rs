@@ -208,7 +208,7 @@ fn fold_plan(ds: &Dataset) -> Vec<(String, FoldKind, Keep<'_>)> {
 }
 
 /// The cross-validation folds of `ds` ([`fold_sets`]), in parallel, `progress` called as each
-/// ends: each subset's own fit of the base model (`kind`, `dist`; the full data's `fill` where
+/// ends (their fits counting in `watch`): each subset's own fit of the base model (`kind`, `dist`; the full data's `fill` where
 /// that fit fails or is not usable), and the subset rebuilt on it ([`crate::render::reconstruct::reconstruct`]) on a
 /// table of `dims`. The base is refitted so that a fold knows nothing of the samples it
 /// leaves out: the full data's fit would carry them into the fold's reconstruction, and the
@@ -219,12 +219,13 @@ pub fn folds(
     (kind, dist): (crate::model::ModelKind, crate::model::Distribution),
     fill: crate::model::Model,
     progress: &(dyn Fn(&str) + Sync),
+    watch: Option<&super::Watch>,
 ) -> Vec<Fold> {
     use rayon::prelude::*;
     fold_sets(ds)
         .into_par_iter()
         .map(|(name, kind_of_fold, sub)| {
-            let base = super::fit_one(&sub, kind, dist, 0)
+            let base = super::fit_one(&sub, kind, dist, 0, watch)
                 .ok()
                 .filter(|r| r.usable())
                 .map_or(fill, |r| r.model_for(0));

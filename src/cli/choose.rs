@@ -112,26 +112,39 @@ pub(crate) fn run_choose(a: ChooseArgs) -> Result<()> {
     };
     let quiet = quiet();
     let t = std::time::Instant::now();
+    let watch = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
     let opts = choose::ChooseOptions {
         threshold,
         verify: a.verify,
+        watch: Some(watch.clone()),
         ..Default::default()
     };
     // One step per progress line (`choose::progress_steps`). On a terminal the lines scroll
-    // above a bar with the time left.
+    // above a bar with the time left, its message the step last done and, every 0.25 s, the
+    // fits' passes over the data so far.
     let steps = choose::progress_steps(&ds, &cases, &opts);
     let bar = progress_bar(steps as u64, "global fits of every model");
-    let (result, images) = choose::choose(&ds, &cases, &opts, &|line| {
-        if bar.is_hidden() {
-            if !quiet {
-                eprintln!("{line}");
+    let last = std::sync::Mutex::new(String::from("global fits of every model"));
+    let tick = |k: usize| {
+        let last = last.lock().expect("no progress hook panics");
+        bar.set_message(format!("{last} · {k} evaluations in all"));
+    };
+    let chosen = brdfit::fit::ticking(&watch, &tick, || {
+        choose::choose(&ds, &cases, &opts, &|line| {
+            if bar.is_hidden() {
+                if !quiet {
+                    eprintln!("{line}");
+                }
+            } else {
+                let mut last = last.lock().expect("no progress hook panics");
+                *last = line.split(':').next().unwrap_or("").to_string();
+                bar.println(line);
+                bar.inc(1);
+                bar.set_message(last.clone());
             }
-        } else {
-            bar.println(line);
-            bar.inc(1);
-            bar.set_message(line.split(':').next().unwrap_or("").to_string());
-        }
-    })?;
+        })
+    });
+    let (result, images) = chosen?;
     bar.finish_and_clear();
     let written = choose::write(&a.output, &result, &images)?;
     print(&choose::markdown(&result))?;
