@@ -811,11 +811,11 @@ fn scene_needs(doc: &mut Doc, set: &DataSet, fits: &[FitResult]) -> Result<Vec<S
     // passes over the data so far beside the step last done.
     let steps = crate::choose::progress_steps(&set.ds, &cases, &opts);
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let last = std::sync::Mutex::new(String::new());
+    let last = std::sync::Mutex::new(String::from("global fits of every model"));
     let share = || done.load(std::sync::atomic::Ordering::Relaxed) as f64 / steps as f64;
     let tick = |k: usize| {
         let last = last.lock().expect("no progress hook panics");
-        step_at(set, 4, share(), &format!("{last} · {k} evaluations in all"));
+        step_at(set, 4, share(), &fit::with_count(&last, k));
     };
     let chosen = fit::ticking(&watch, &tick, || {
         crate::choose::choose_with(&set.ds, &cases, &opts, fits, &|m| {

@@ -174,6 +174,11 @@ fn ticking_reports_the_count_while_work_runs_and_stops_after_a_panic() {
             .expect("a tick within a minute")
     });
     assert_eq!(out, 7);
+    // No tick after the return (the ticker is joined before it: every tick sent by then is
+    // drained here), none in twice the tick's period.
+    while rx.try_recv().is_ok() {}
+    std::thread::sleep(2 * fit::TICK);
+    assert!(rx.try_recv().is_err(), "a tick after ticking returned");
     // Work that panics: the panic comes back out, the ticker stopped (no hang).
     let quiet = AtomicUsize::new(0);
     let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {

@@ -95,7 +95,19 @@ fn sparse_reference_is_close_or_says_so() {
             verify: 0,
             ..Default::default()
         };
-        let (result, images) = choose(&ds, &cases, &opts, &|_| {}).unwrap();
+        let lines = std::sync::Mutex::new(Vec::new());
+        let (result, images) = choose(&ds, &cases, &opts, &|l| {
+            lines.lock().unwrap().push(l.to_string())
+        })
+        .unwrap();
+        // No candidate is Torrance–Sparrow (ABC): its fit as the resampling's base is a step.
+        let lines = lines.into_inner().unwrap();
+        assert_eq!(
+            lines.len(),
+            brdfit::choose::progress_steps(&ds, &cases, &opts)
+        );
+        let base = "torrance-sparrow (abc): fitted as a base of the resampling";
+        assert_eq!(lines.iter().filter(|l| *l == base).count(), 1, "{lines:#?}");
         for ((case, imgs), c) in result.cases.iter().zip(&images).zip(&cases) {
             let truth = exact(&c.scene, &net);
             let reference = &imgs.renders[0].1;

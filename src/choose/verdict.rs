@@ -208,8 +208,9 @@ fn fold_plan(ds: &Dataset) -> Vec<(String, FoldKind, Keep<'_>)> {
 }
 
 /// The cross-validation folds of `ds` ([`fold_sets`]), in parallel, `progress` called as each
-/// ends (their fits counting in `watch`): each subset's own fit of the base model (`kind`, `dist`; the full data's `fill` where
-/// that fit fails or is not usable), and the subset rebuilt on it ([`crate::render::reconstruct::reconstruct`]) on a
+/// ends (their fits counting in `watch`): each subset's own fit of the base model (`kind`,
+/// `dist`; the full data's `fill` where that fit fails or is not usable), and the subset
+/// rebuilt on it ([`crate::render::reconstruct::reconstruct`]) on a
 /// table of `dims`. The base is refitted so that a fold knows nothing of the samples it
 /// leaves out: the full data's fit would carry them into the fold's reconstruction, and the
 /// fold would differ from the reference less than the reference from the truth.

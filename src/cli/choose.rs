@@ -127,7 +127,7 @@ pub(crate) fn run_choose(a: ChooseArgs) -> Result<()> {
     let last = std::sync::Mutex::new(String::from("global fits of every model"));
     let tick = |k: usize| {
         let last = last.lock().expect("no progress hook panics");
-        bar.set_message(format!("{last} · {k} evaluations in all"));
+        bar.set_message(brdfit::fit::with_count(&last, k));
     };
     let chosen = brdfit::fit::ticking(&watch, &tick, || {
         choose::choose(&ds, &cases, &opts, &|line| {

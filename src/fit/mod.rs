@@ -621,6 +621,16 @@ pub fn fit_models(
 /// How often [`ticking`] reports a count while work goes on.
 pub const TICK: std::time::Duration = std::time::Duration::from_millis(250);
 
+/// `what` and the passes over the data so far, as a progress message: `what · K evaluations in
+/// all`, or the count alone where nothing is named.
+pub fn with_count(what: &str, k: usize) -> String {
+    if what.is_empty() {
+        format!("{k} evaluations in all")
+    } else {
+        format!("{what} · {k} evaluations in all")
+    }
+}
+
 /// Run `work`, calling `tick(count)` from another thread every [`TICK`] with `count`'s value
 /// while it runs, once it is above 0 (a fit's passes over the data: [`FitOptions::watch`]).
 /// The ticker stops as `work` ends, also by a panic.
@@ -660,7 +670,9 @@ pub fn ticking<T>(
 /// starts and ends: `done` of `total` units of work (each fit weighs [`work_weight`], its
 /// relative cost, so a bar's estimate of the time left holds while one dear fit runs for
 /// seconds: a full MERL table's ggx-smith-2), `running` the fits under way, e.g.
-/// `ggx-smith-2 (r), torrance-sparrow (abc) (g)`.
+/// `ggx-smith-2 (r), torrance-sparrow (abc) (g)`, and every [`TICK`] while fits run, with the
+/// passes over the data so far (`… · 1234 evaluations in all`). The fits count in a watch of
+/// their own: a `watch` set in `opts` is not used.
 pub fn fit_models_with_progress(
     ds: &Dataset,
     opts: &[FitOptions],
@@ -705,11 +717,7 @@ pub fn fit_models_with_progress(
     let tick = |k: usize| {
         let run = running.lock().expect("no progress hook panics");
         let now = done.load(std::sync::atomic::Ordering::Relaxed);
-        progress(
-            now,
-            total,
-            &format!("{} · {k} evaluations in all", run.join(", ")),
-        );
+        progress(now, total, &with_count(&run.join(", "), k));
     };
     let mut runs: Vec<Vec<Vec<FitResult>>> = vec![Vec::new(); opts.len()];
     let mut walls = Vec::new();
