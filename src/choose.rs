@@ -19,7 +19,7 @@
 //! edge lit, it is not (Blinn 1977, §"Comparison of the models").
 
 use crate::data::Dataset;
-use crate::fit::{FitOptions, FitResult, fit};
+use crate::fit::{FitOptions, FitResult, Watch, fit};
 use crate::model::{Distribution, Model, ModelKind};
 use crate::render::compare::{self, Summary};
 use crate::render::measured::{Dims, Tabulated};
@@ -196,7 +196,7 @@ pub struct ChooseOptions {
     pub verify: usize,
     /// Counts every fit's passes over the data as they start ([`FitOptions::watch`]), for a
     /// progress display to read while the fits run.
-    pub watch: Option<Arc<std::sync::atomic::AtomicUsize>>,
+    pub watch: Option<Watch>,
 }
 
 impl Default for ChooseOptions {
@@ -500,9 +500,6 @@ fn fit_one(
     o.watch = watch.cloned();
     Ok(fit(ds, &o)?.remove(0))
 }
-
-/// A count of passes over the data ([`FitOptions::watch`]).
-pub type Watch = Arc<std::sync::atomic::AtomicUsize>;
 
 /// The scene's exposure as a factor on f_r cosθi: the irradiance its lights give (green) at
 /// the point the camera looks at, facing each light; a pixel of the test object shows about

@@ -220,7 +220,7 @@ pub fn folds(
     (kind, dist): (crate::model::ModelKind, crate::model::Distribution),
     fill: crate::model::Model,
     progress: &(dyn Fn(&str) + Sync),
-    watch: Option<&super::Watch>,
+    watch: Option<&crate::fit::Watch>,
 ) -> Vec<Fold> {
     use rayon::prelude::*;
     fold_sets(ds)

@@ -160,7 +160,7 @@ pub struct FitOptions {
     pub seed: u64,
     /// Counts the fit's passes over the data as they start (every solver's, the statistics'
     /// too), for a progress display to read while a long fit goes on.
-    pub watch: Option<std::sync::Arc<std::sync::atomic::AtomicUsize>>,
+    pub watch: Option<Watch>,
 }
 
 impl FitOptions {
@@ -620,6 +620,10 @@ pub fn fit_models(
 
 /// How often [`ticking`] reports a count while work goes on.
 pub const TICK: std::time::Duration = std::time::Duration::from_millis(250);
+
+/// A count of passes over the data, shared by the fits that add to it and the display that
+/// reads it ([`FitOptions::watch`], [`ticking`]).
+pub type Watch = std::sync::Arc<AtomicUsize>;
 
 /// `what` and the passes over the data so far, as a progress message: `what · K evaluations in
 /// all`, or the count alone where nothing is named.

@@ -516,7 +516,7 @@ pub struct BrdfProblem {
     /// Counts every pass over the data as it starts (each evaluation of the cost, with or
     /// without its normal equations; problems derived from this one count here too), for a
     /// progress display to read while a long fit goes on ([`super::FitOptions::watch`]).
-    pub watch: Option<std::sync::Arc<std::sync::atomic::AtomicUsize>>,
+    pub watch: Option<super::Watch>,
 }
 
 /// Per-evaluation data: each channel's model and the chain factors dθ/du.
