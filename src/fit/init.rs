@@ -122,12 +122,15 @@ impl LobeTables {
         let mut alphas = alphas.to_vec();
         alphas.sort_by(f64::total_cmp);
         alphas.dedup();
+        // Each α's lobe and each n's factors on their own (in parallel: the same values on any
+        // number of threads).
+        use rayon::prelude::*;
         let lobes = alphas
-            .iter()
+            .par_iter()
             .map(|&a| problem::ggx_lobe_values(a, rows, 0..m))
             .collect();
         let fres = ns
-            .iter()
+            .par_iter()
             .map(|&n| {
                 (0..m)
                     .map(|r| {
