@@ -1132,6 +1132,14 @@ pub struct RenderRow {
 /// Figure 7 scenes (Blinn's aluminium and MgO, front and edge lit, Torrance–Sparrow) at
 /// `res`×`res`, against a 16×16-supersampled reference of each.
 pub fn render_study(res: u32) -> Vec<RenderRow> {
+    render_study_with_progress(res, &|_, _, _| {})
+}
+
+/// [`render_study`] with progress as [`render_study_scenes_with_progress`] gives it.
+pub fn render_study_with_progress(
+    res: u32,
+    progress: &(dyn Fn(usize, usize, &str) + Sync),
+) -> Vec<RenderRow> {
     use crate::render::scene;
     let scenes: Vec<crate::render::Scene> = [Model::blinn_aluminium(), Model::blinn_mgo()]
         .iter()
@@ -1139,23 +1147,18 @@ pub fn render_study(res: u32) -> Vec<RenderRow> {
             [scene::Lighting::Front, scene::Lighting::Edge].map(|l| scene::fig7_scene(*m, l, res))
         })
         .collect();
-    render_study_scenes(&scenes)
+    render_study_scenes_with_progress(&scenes, progress)
 }
 
 /// [`render_study`] on any scenes (each at its own resolution).
 pub fn render_study_scenes(scenes: &[crate::render::Scene]) -> Vec<RenderRow> {
-    use crate::render::{self, AntiAlias};
-    let with = |s: &render::Scene, aa: AntiAlias| {
-        let mut s = s.clone();
-        s.antialias = aa;
-        let t = std::time::Instant::now();
-        let img = s.render(&|| {});
-        (img, t.elapsed().as_secs_f64())
-    };
-    let refs: Vec<render::Image> = scenes
-        .iter()
-        .map(|s| with(s, AntiAlias::Uniform(16)).0)
-        .collect();
+    render_study_scenes_with_progress(scenes, &|_, _, _| {})
+}
+
+/// The anti-aliasing settings the render study compares: uniform n×n for n = 1…6, and
+/// Whitted's adaptive corner sampling (4 levels) at six thresholds.
+fn render_study_settings() -> Vec<(String, f64, crate::render::AntiAlias)> {
+    use crate::render::AntiAlias;
     let mut settings: Vec<(String, f64, AntiAlias)> = (1..=6)
         .map(|n| ("uniform".to_string(), n as f64, AntiAlias::Uniform(n)))
         .collect();
@@ -1171,13 +1174,64 @@ pub fn render_study_scenes(scenes: &[crate::render::Scene]) -> Vec<RenderRow> {
             },
         ));
     }
-    let px = |s: &render::Scene| (s.camera.width as f64) * (s.camera.height as f64);
     settings
+}
+
+/// [`render_study_scenes`], calling `progress(done, total, what)` as each image row is
+/// rendered and once at the end (`done == total`); `what` names the render under way, e.g.
+/// `adaptive 0.05, scene 2 of 4`. A row counts its samples per pixel (256 for the reference,
+/// n² for uniform n×n, 2 for adaptive: what its rays cost), so a bar's estimate of the time
+/// left holds through the references (about 70 % of the time). A study at 1024 × 1024
+/// renders for minutes.
+pub fn render_study_scenes_with_progress(
+    scenes: &[crate::render::Scene],
+    progress: &(dyn Fn(usize, usize, &str) + Sync),
+) -> Vec<RenderRow> {
+    use crate::render::{self, AntiAlias};
+    let settings = render_study_settings();
+    let weight = |aa: AntiAlias| match aa {
+        AntiAlias::Uniform(n) | AntiAlias::Stratified(n) => (n * n) as usize,
+        AntiAlias::None => 1,
+        AntiAlias::Adaptive { .. } => 2,
+    };
+    let rows: usize = scenes.iter().map(|s| s.camera.height as usize).sum();
+    let per_row =
+        weight(AntiAlias::Uniform(16)) + settings.iter().map(|s| weight(s.2)).sum::<usize>();
+    let total = rows * per_row;
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let with = |k: usize, s: &render::Scene, aa: AntiAlias, what: &str| {
+        let what = format!("{what}, scene {} of {}", k + 1, scenes.len());
+        progress(
+            done.load(std::sync::atomic::Ordering::Relaxed),
+            total,
+            &what,
+        );
+        let mut s = s.clone();
+        s.antialias = aa;
+        let w = weight(aa);
+        let t = std::time::Instant::now();
+        let img = s.render(&|| {
+            let d = done.fetch_add(w, std::sync::atomic::Ordering::Relaxed) + w;
+            progress(d, total, &what);
+        });
+        (img, t.elapsed().as_secs_f64())
+    };
+    let refs: Vec<render::Image> = scenes
+        .iter()
+        .enumerate()
+        .map(|(k, s)| with(k, s, AntiAlias::Uniform(16), "16×16 reference").0)
+        .collect();
+    let px = |s: &render::Scene| (s.camera.width as f64) * (s.camera.height as f64);
+    let out = settings
         .into_iter()
         .map(|(mode, setting, aa)| {
+            let what = match aa {
+                AntiAlias::Uniform(n) => format!("uniform {n}×{n}"),
+                _ => format!("{mode} {setting}"),
+            };
             let (mut rays, mut all, mut secs, mut err) = (0.0, 0.0, 0.0, 0.0);
-            for (s, r) in scenes.iter().zip(&refs) {
-                let (img, t) = with(s, aa);
+            for (k, (s, r)) in scenes.iter().zip(&refs).enumerate() {
+                let (img, t) = with(k, s, aa, &what);
                 rays += img.rays[0] as f64 / px(s);
                 all += img.total_rays() as f64 / px(s);
                 secs += t;
@@ -1193,7 +1247,9 @@ pub fn render_study_scenes(scenes: &[crate::render::Scene]) -> Vec<RenderRow> {
                 rmse: err / k,
             }
         })
-        .collect()
+        .collect();
+    progress(total, total, "done");
+    out
 }
 
 /// Chart of the render study: RMSE against primary rays per pixel (or time).

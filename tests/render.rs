@@ -391,6 +391,50 @@ fn adaptive_reaches_uniform_error_with_fewer_rays() {
     assert!(a < u, "adaptive needs {a} rays/pixel, uniform {u}");
 }
 
+/// The render study's progress counts every image row once (each scene's 16 rows for its
+/// reference and for each of the 12 settings, weighted by samples per pixel: 256, n² for
+/// n = 1…6, 2 for each of the six adaptive thresholds), ends at its total, names the render
+/// under way, and leaves the study's numbers as they are without it.
+#[test]
+fn render_study_progress_counts_every_row_once() {
+    let calls = std::sync::Mutex::new(Vec::new());
+    let rows = brdfit::study::render_study_with_progress(16, &|done, total, what: &str| {
+        calls.lock().unwrap().push((done, total, what.to_string()));
+    });
+    let calls = calls.into_inner().unwrap();
+    let total = 4 * 16 * (256 + (1 + 4 + 9 + 16 + 25 + 36) + 6 * 2);
+    assert!(calls.iter().all(|c| c.1 == total));
+    assert_eq!(calls.last().map(|c| c.0), Some(total));
+    // Each row's call carries a distinct running count (in any order across threads); a
+    // render announces itself at the count so far (0 for the first, else a row's count).
+    let mut counts: Vec<usize> = calls
+        .iter()
+        .filter(|c| c.2 != "done")
+        .map(|c| c.0)
+        .collect();
+    counts.sort_unstable();
+    counts.dedup();
+    assert_eq!((counts.len(), counts[0]), (1 + 4 * 16 * 13, 0));
+    assert_eq!(counts.last(), Some(&total));
+    assert!(calls.iter().any(|c| c.2 == "16×16 reference, scene 1 of 4"));
+    assert!(calls.iter().any(|c| c.2 == "adaptive 0.05, scene 4 of 4"));
+    let plain = brdfit::study::render_study(16);
+    let strip = |r: &[brdfit::study::RenderRow]| {
+        r.iter()
+            .map(|r| {
+                (
+                    r.mode.clone(),
+                    r.setting,
+                    r.rays_per_pixel,
+                    r.all_rays_per_pixel,
+                    r.rmse,
+                )
+            })
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(strip(&rows), strip(&plain));
+}
+
 #[test]
 fn small_objects_between_corners_are_found() {
     // A sphere far smaller than a pixel, centred between pixel corners: a single centre or

@@ -142,10 +142,19 @@ pub(crate) fn run_study(cmd: StudyCommand) -> Result<()> {
             print(&md)
         }
         StudyCommand::Render { res, scene, output } => {
-            let rows = match &scene {
-                Some(p) => study::render_study_scenes(&[load_scene(p)?]),
-                None => study::render_study(res),
+            // A bar with the render under way (1.8 s at the default 192 × 192, minutes at
+            // 1024 × 1024 or on a large scene), moving as each image row is done.
+            let bar = progress_bar(1, "render study");
+            let progress = |done: usize, total: usize, what: &str| {
+                bar.set_length(total as u64);
+                bar.set_position(done as u64);
+                bar.set_message(what.to_string());
             };
+            let rows = match &scene {
+                Some(p) => study::render_study_scenes_with_progress(&[load_scene(p)?], &progress),
+                None => study::render_study_with_progress(res, &progress),
+            };
+            bar.finish_and_clear();
             let what = match &scene {
                 Some(p) => p.display().to_string(),
                 None => format!("Figure 7 scenes, {res}×{res}"),
