@@ -1705,12 +1705,11 @@ pub fn resize_catmull_rom(
     (sw, sh): (usize, usize),
     (tw, th): (usize, usize),
 ) -> Vec<u8> {
-    if (sw, sh) == (tw, th) || sw == 0 || sh == 0 {
-        return if (sw, sh) == (tw, th) {
-            src.to_vec()
-        } else {
-            vec![0; 3 * tw * th]
-        };
+    if (sw, sh) == (tw, th) {
+        return src.to_vec();
+    }
+    if sw == 0 || sh == 0 {
+        return vec![0; 3 * tw * th];
     }
     // Columns: output row o is the weighted sum of input rows left.., a row at a time.
     let mut mid = vec![0.0f32; 3 * sw * th];
