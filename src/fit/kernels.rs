@@ -13,7 +13,7 @@ use super::{Loss, Rows, TsD3};
 use crate::fit::lsq::Robust;
 use crate::lanes::{self, LANES};
 use crate::model::{Distribution, MAX_PARAMS, Model, ModelKind};
-use std::f64::consts::{FRAC_1_PI, PI};
+use std::f64::consts::FRAC_1_PI;
 
 /// The most parameters a lane kernel handles (GGX–Smith with two lobes).
 const MAX_K: usize = 6;
@@ -143,16 +143,14 @@ fn body<const LOSS: u8, const JAC: bool, const ROB: bool>(
         }
         Lane::Ggx => {
             let k = Ggx::new([p[0], p[1], p[2], p[3]]);
-            let cols = [&rows.nl, &rows.ne, &rows.nh, &rows.eh, &rows.target];
-            let acc = drive(rows, range, cols, &GgxBlock(k, res));
+            let acc = drive(rows, range, ggx_columns(rows), &GgxBlock(k, res));
             finish::<4>(&acc, g, gr)
         }
         Lane::Ggx2 => {
             // alpha1, ps1, alpha2, ps2, n, pd.
             let k1 = Ggx::new([p[0], p[4], p[1], p[5]]);
             let k2 = Ggx::new([p[2], p[4], p[3], p[5]]);
-            let cols = [&rows.nl, &rows.ne, &rows.nh, &rows.eh, &rows.target];
-            let acc = drive(rows, range, cols, &Ggx2Block(k1, k2, res));
+            let acc = drive(rows, range, ggx_columns(rows), &Ggx2Block(k1, k2, res));
             finish::<6>(&acc, g, gr)
         }
         Lane::Ts(dist) => {
@@ -173,20 +171,21 @@ fn body<const LOSS: u8, const JAC: bool, const ROB: bool>(
     }
 }
 
-/// One block of [`LANES`] rows of a kernel: five columns and the √weights, added to the sums.
-/// (A trait rather than a closure, so the block is inlined into each instruction-set version.)
-pub(super) trait Block {
+/// One block of [`LANES`] rows of a kernel: `C` columns (five unless it says) and the
+/// √weights, added to the sums. (A trait rather than a closure, so the block is inlined into
+/// each instruction-set version.)
+pub(super) trait Block<const C: usize = 5> {
     /// Add the block's residuals and Jacobian rows to `acc`.
-    fn run(&self, c: &[[f64; LANES]; 5], sw: &[f64; LANES], acc: &mut Acc);
+    fn run(&self, c: &[[f64; LANES]; C], sw: &[f64; LANES], acc: &mut Acc);
 }
 
-/// Run `block` over rows `range` in blocks of [`LANES`] rows of the five columns `cols` and
+/// Run `block` over rows `range` in blocks of [`LANES`] rows of the `C` columns `cols` and
 /// their √weights; the tail's lanes past the end repeat the last row with weight 0.
 #[inline(always)]
-pub(super) fn drive<B: Block>(
+pub(super) fn drive<const C: usize, B: Block<C>>(
     rows: &Rows,
     range: std::ops::Range<usize>,
-    cols: [&Vec<f64>; 5],
+    cols: [&Vec<f64>; C],
     block: &B,
 ) -> Acc {
     let mut acc = [[0.0f64; LANES]; SUMS];
@@ -381,6 +380,7 @@ impl<const LOSS: u8, const JAC: bool, const ROB: bool> Block for PhongBlock<LOSS
 struct Ggx {
     alpha: f64,
     a2: f64,
+    two_over_alpha: f64,
     n: f64,
     n2m1: f64,
     ps: f64,
@@ -392,6 +392,7 @@ impl Ggx {
         Ggx {
             alpha: p[0],
             a2: p[0] * p[0],
+            two_over_alpha: 2.0 / p[0],
             n: p[1],
             n2m1: p[1] * p[1] - 1.0,
             ps: p[2],
@@ -399,64 +400,56 @@ impl Ggx {
         }
     }
 
-    /// Smith's G1 for GGX at cosine `c` and its α-derivative: G1 = 2/(1 + √(1 + α² tan²)).
+    /// Smith's G1 for GGX from tan² of the angle, and its α-derivative: G1 = 2/(1 + s) with
+    /// s = √(1 + α² tan²) (Walter et al. 2007, eq. 34), dG1/dα = −G1 α tan²/(s (1 + s)); both
+    /// from the one division u = 1/(s (1 + s)), G1 = 2 s u.
     #[inline(always)]
-    fn g1(&self, c: f64) -> (f64, f64) {
-        self.g1_tan2(tan2(c))
-    }
-
-    /// [`Ggx::g1`] from tan² of the angle (the same operations, so the same bits).
-    #[inline(always)]
-    fn g1_tan2(&self, tan2: f64) -> (f64, f64) {
+    fn g1(&self, tan2: f64) -> (f64, f64) {
         let s = (1.0 + self.a2 * tan2).sqrt();
-        let g = 2.0 / (1.0 + s);
-        (g, -g * g * 0.5 * self.alpha * tan2 / s)
+        let u = 1.0 / (s * (1.0 + s));
+        let g = 2.0 * s * u;
+        (g, -g * self.alpha * tan2 * u)
     }
 
-    /// The lobe D G1(L) G1(E)/(4 N·E) (cosθi f_r per unit ps F) at N·H² = `nh2` (tan² θh =
-    /// `tan2`) and its α-derivative.
+    /// The lobe D G1(L) G1(E)/(4 N·E) (cosθi f_r per unit ps F) and its α-derivative from a
+    /// row's [tan² θi, tan² θo, tan² θh, 1/(4π N·E (N·H)⁴)] ([`super::GgxTerms`]):
+    /// D/(4 N·E) = α² factor/q², q = α² + tan² θh (Walter et al. 2007, eq. 33), and
+    /// dD/dα = D (2/α − 4α/q).
     #[inline(always)]
-    fn lobe(&self, nh2: f64, tan2: f64, nl: f64, ne: f64) -> (f64, f64) {
-        self.lobe_at(nh2, tan2, [self::tan2(nl), self::tan2(ne), 0.25 / ne])
-    }
-
-    /// [`Ggx::lobe`] from what does not depend on α: [tan² θi, tan² θo, 1/(4 N·E)] (so two
-    /// lobes at one row compute them once, with the same bits).
-    #[inline(always)]
-    fn lobe_at(&self, nh2: f64, tan2: f64, [tl, te, w]: [f64; 3]) -> (f64, f64) {
-        let q = self.a2 + tan2;
-        let d = self.a2 / (PI * nh2 * nh2 * q * q);
-        let dd = d * (2.0 / self.alpha - 4.0 * self.alpha / q);
-        let (gl, dgl) = self.g1_tan2(tl);
-        let (ge, dge) = self.g1_tan2(te);
-        (
-            d * gl * ge * w,
-            w * (dd * gl * ge + d * (dgl * ge + gl * dge)),
-        )
+    fn lobe(&self, [ti, to, th, factor]: [f64; 4]) -> (f64, f64) {
+        let r = 1.0 / (self.a2 + th);
+        let d = self.a2 * factor * r * r;
+        let dd = d * (self.two_over_alpha - 4.0 * self.alpha * r);
+        let (gl, dgl) = self.g1(ti);
+        let (ge, dge) = self.g1(to);
+        (d * gl * ge, dd * gl * ge + d * (dgl * ge + gl * dge))
     }
 }
 
-/// tan² of the angle whose cosine is `c`: (1 − c²)/c², 0 at c ≥ 1.
-#[inline(always)]
-fn tan2(c: f64) -> f64 {
-    let c2 = c * c;
-    (1.0 - c2).max(0.0) / c2
+/// The columns GGX–Smith's kernels read: N·L, the rows' [`super::GgxTerms`] (computed on first use),
+/// the target.
+fn ggx_columns(rows: &Rows) -> [&Vec<f64>; 7] {
+    let t = rows.ggx();
+    [
+        &rows.nl,
+        &t.tan2_i,
+        &t.tan2_o,
+        &t.tan2_h,
+        &t.factor,
+        &t.eh,
+        &rows.target,
+    ]
 }
 
 /// [`Ggx::lobe`] per unit cosθi at rows `range`: D G1(L) G1(E)/(4 N·L N·E), 0 where N·H ≤ 0
 /// or E·H ≤ 0.
 pub(super) fn ggx_lobe_values(alpha: f64, rows: &Rows, range: std::ops::Range<usize>) -> Vec<f64> {
     let k = Ggx::new([alpha, 1.5, 1.0, 0.0]);
+    let t = rows.ggx();
     range
         .map(|i| {
-            let (nh, eh) = (rows.nh[i], rows.eh[i]);
-            if nh > 0.0 && eh > 0.0 {
-                let nh2 = nh * nh;
-                let tan2 = (1.0 - nh2).max(0.0) / nh2;
-                k.lobe(nh2, tan2, rows.nl[i], rows.ne[i]).0 / rows.nl[i]
-            } else {
-                0.0
-            }
+            let terms = [t.tan2_i[i], t.tan2_o[i], t.tan2_h[i], t.factor[i]];
+            k.lobe(terms).0 / rows.nl[i]
         })
         .collect()
 }
@@ -483,38 +476,26 @@ pub(super) fn abc_shape_rows(b: f64, cs: &[f64], nh: &[f64], out: &mut Vec<f64>)
     }
 }
 
-/// One block of GGX–Smith: columns nl, ne, nh, eh, target. y = cosθi f_r =
-/// pd cosθi/π + ps F D G1(L) G1(E)/(4 N·E), zero specular where N·H ≤ 0 or E·H ≤ 0, as in
+/// One block of GGX–Smith: columns nl, the four [`super::GgxTerms`] of [`Ggx::lobe`], E·H (or 1),
+/// target ([`ggx_columns`]). y = cosθi f_r = pd cosθi/π + ps F D G1(L) G1(E)/(4 N·E), zero
+/// specular where N·H ≤ 0 or E·H ≤ 0 (there the terms make the lobe 0), as in
 /// `model::ggx_smith::brdf_grad`.
 struct GgxBlock<const LOSS: u8, const JAC: bool, const ROB: bool>(Ggx, Res<LOSS, JAC, ROB>);
 
-impl<const LOSS: u8, const JAC: bool, const ROB: bool> Block for GgxBlock<LOSS, JAC, ROB> {
+impl<const LOSS: u8, const JAC: bool, const ROB: bool> Block<7> for GgxBlock<LOSS, JAC, ROB> {
     #[inline(always)]
-    fn run(&self, c: &[[f64; LANES]; 5], sw: &[f64; LANES], acc: &mut Acc) {
+    fn run(&self, c: &[[f64; LANES]; 7], sw: &[f64; LANES], acc: &mut Acc) {
         let k = &self.0;
-        let [nl, ne, nh, eh, tg] = c;
+        let [nl, ti, to, th, fa, eh, tg] = c;
         let mut y = [0.0f64; LANES];
         let mut dy = [[0.0f64; LANES]; 4];
         for l in 0..LANES {
-            let ok = nh[l] > 0.0 && eh[l] > 0.0;
-            let h = if ok { nh[l] } else { 1.0 };
-            let nh2 = h * h;
-            let tan2 = (1.0 - nh2).max(0.0) / nh2;
-            let q = k.a2 + tan2;
-            let d = k.a2 / (PI * nh2 * nh2 * q * q);
-            let dd = d * (2.0 / k.alpha - 4.0 * k.alpha / q);
-            let (gl, dgl) = k.g1(nl[l]);
-            let (ge, dge) = k.g1(ne[l]);
-            let (f, df) = fresnel(k.n, k.n2m1, if ok { eh[l] } else { 1.0 });
-            let w = 0.25 / ne[l];
-            let a = if ok { f * d * gl * ge * w } else { 0.0 };
+            let (lobe, dlobe) = k.lobe([ti[l], to[l], th[l], fa[l]]);
+            let (f, df) = fresnel(k.n, k.n2m1, eh[l]);
+            let a = f * lobe;
             y[l] = k.pd * nl[l] * FRAC_1_PI + k.ps * a;
-            dy[0][l] = if ok {
-                k.ps * f * w * (dd * gl * ge + d * (dgl * ge + gl * dge))
-            } else {
-                0.0
-            };
-            dy[1][l] = if ok { k.ps * df * d * gl * ge * w } else { 0.0 };
+            dy[0][l] = k.ps * f * dlobe;
+            dy[1][l] = k.ps * df * lobe;
             dy[2][l] = a;
             dy[3][l] = nl[l] * FRAC_1_PI;
         }
@@ -523,35 +504,29 @@ impl<const LOSS: u8, const JAC: bool, const ROB: bool> Block for GgxBlock<LOSS, 
 }
 
 /// One block of GGX–Smith with two lobes (alpha1, ps1, alpha2, ps2, n, pd; the lobes as
-/// [`Ggx`] with their ps, sharing n and pd): columns nl, ne, nh, eh, target. y = pd cosθi/π +
-/// F (ps1 L1 + ps2 L2), zero specular where N·H ≤ 0 or E·H ≤ 0, as in
-/// `model::ggx_smith_2::brdf_grad`.
+/// [`Ggx`] with their ps, sharing n and pd), the columns of [`GgxBlock`]. y = pd cosθi/π +
+/// F (ps1 L1 + ps2 L2), as in `model::ggx_smith_2::brdf_grad`.
 struct Ggx2Block<const LOSS: u8, const JAC: bool, const ROB: bool>(Ggx, Ggx, Res<LOSS, JAC, ROB>);
 
-impl<const LOSS: u8, const JAC: bool, const ROB: bool> Block for Ggx2Block<LOSS, JAC, ROB> {
+impl<const LOSS: u8, const JAC: bool, const ROB: bool> Block<7> for Ggx2Block<LOSS, JAC, ROB> {
     #[inline(always)]
-    fn run(&self, c: &[[f64; LANES]; 5], sw: &[f64; LANES], acc: &mut Acc) {
+    fn run(&self, c: &[[f64; LANES]; 7], sw: &[f64; LANES], acc: &mut Acc) {
         let (k1, k2) = (&self.0, &self.1);
-        let [nl, ne, nh, eh, tg] = c;
+        let [nl, ti, to, th, fa, eh, tg] = c;
         let mut y = [0.0f64; LANES];
         let mut dy = [[0.0f64; LANES]; 6];
         for l in 0..LANES {
-            let ok = nh[l] > 0.0 && eh[l] > 0.0;
-            let h = if ok { nh[l] } else { 1.0 };
-            let nh2 = h * h;
-            let tan2 = (1.0 - nh2).max(0.0) / nh2;
-            let shared = [self::tan2(nl[l]), self::tan2(ne[l]), 0.25 / ne[l]];
-            let (l1, dl1) = k1.lobe_at(nh2, tan2, shared);
-            let (l2, dl2) = k2.lobe_at(nh2, tan2, shared);
-            let (f, df) = fresnel(k1.n, k1.n2m1, if ok { eh[l] } else { 1.0 });
-            let m = if ok { 1.0 } else { 0.0 };
+            let terms = [ti[l], to[l], th[l], fa[l]];
+            let (l1, dl1) = k1.lobe(terms);
+            let (l2, dl2) = k2.lobe(terms);
+            let (f, df) = fresnel(k1.n, k1.n2m1, eh[l]);
             let spec = k1.ps * l1 + k2.ps * l2;
-            y[l] = k1.pd * nl[l] * FRAC_1_PI + m * f * spec;
-            dy[0][l] = m * k1.ps * f * dl1;
-            dy[1][l] = m * f * l1;
-            dy[2][l] = m * k2.ps * f * dl2;
-            dy[3][l] = m * f * l2;
-            dy[4][l] = m * df * spec;
+            y[l] = k1.pd * nl[l] * FRAC_1_PI + f * spec;
+            dy[0][l] = k1.ps * f * dl1;
+            dy[1][l] = f * l1;
+            dy[2][l] = k2.ps * f * dl2;
+            dy[3][l] = f * l2;
+            dy[4][l] = df * spec;
             dy[5][l] = nl[l] * FRAC_1_PI;
         }
         self.2.add::<6>(nl, &y, &dy, tg, sw, acc);
@@ -928,18 +903,33 @@ mod tests {
         }
     }
 
-    /// The kernel of Torrance–Sparrow D2 reads θh from the rows' cached column; rows pushed
-    /// after it was computed get theirs (the cache is rebuilt).
+    /// The kernels of Torrance–Sparrow D2 and GGX–Smith read columns derived from the rows
+    /// and cached (θh; tan² θi, tan² θo, tan² θh, 1/(4π N·E (N·H)⁴), E·H); rows pushed after
+    /// they were computed get theirs (the caches are rebuilt). Each value against its angle's
+    /// definition by acos and tan (an independent path) to 1e-12 relative.
     #[test]
-    fn theta_h_follows_the_rows() {
+    fn derived_columns_follow_the_rows() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
         let mut rows = random_rows(&mut rng, 5, false, Loss::Log);
         assert_eq!(rows.theta_h().len(), 5);
+        assert_eq!(rows.ggx().factor.len(), 5);
         let more = random_rows(&mut rng, 4, false, Loss::Log);
         rows.extend(&more);
         assert_eq!(rows.theta_h().len(), 9);
+        let t = rows.ggx();
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs();
+        let tan2 = |c: f64| c.acos().tan().powi(2);
         for i in 0..9 {
             assert_eq!(rows.theta_h()[i], rows.nh[i].clamp(0.0, 1.0).acos());
+            let (nl, ne, nh) = (rows.nl[i], rows.ne[i], rows.nh[i]);
+            assert!(close(t.tan2_i[i], tan2(nl)), "{} {}", t.tan2_i[i], tan2(nl));
+            assert!(close(t.tan2_o[i], tan2(ne)));
+            assert!(close(t.tan2_h[i], tan2(nh)));
+            assert!(close(
+                t.factor[i],
+                1.0 / (4.0 * std::f64::consts::PI * ne * nh.powi(4))
+            ));
+            assert_eq!(t.eh[i], rows.eh[i]);
         }
     }
 

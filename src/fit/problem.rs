@@ -289,9 +289,44 @@ pub struct Rows {
     /// √weight; empty when the rows are unweighted (every weight 1).
     pub sw: Vec<f64>,
     weighted: bool,
-    /// θh = acos N·H (N·H clamped to [0, 1]), computed on first use (Torrance–Sparrow D2's
-    /// kernel) and kept with the rows.
+    /// Columns derived from the geometry alone, computed on first use and kept with the rows.
+    derived: Derived,
+}
+
+/// Parameter-free columns a kernel reads, each computed once on first use ([`Rows::theta_h`],
+/// [`Rows::ggx`]); adding rows drops them.
+#[derive(Clone, Debug, Default)]
+struct Derived {
+    /// θh = acos N·H (Torrance–Sparrow D2's kernel).
     theta_h: std::sync::OnceLock<Vec<f64>>,
+    /// GGX–Smith's terms.
+    ggx: std::sync::OnceLock<GgxTerms>,
+}
+
+/// What GGX–Smith's lobe (Walter et al. 2007, eqs. 33 and 34 with Smith's G1) needs of a row
+/// beside its roughness, one column each: tan² θi and tan² θo (G1's arguments), tan² θh and
+/// 1/(4π N·E (N·H)⁴) (D's), and E·H (Fresnel's). Where N·H ≤ 0 or E·H ≤ 0 (no specular
+/// reflection) tan² θh is 0, E·H is 1 and the factor 0, so the lobe is 0 with every term
+/// finite.
+#[derive(Clone, Debug, Default)]
+pub struct GgxTerms {
+    /// tan² θi = (1 − (N·L)²)/(N·L)².
+    pub tan2_i: Vec<f64>,
+    /// tan² θo.
+    pub tan2_o: Vec<f64>,
+    /// tan² θh, or 0.
+    pub tan2_h: Vec<f64>,
+    /// 1/(4π N·E (N·H)⁴), or 0.
+    pub factor: Vec<f64>,
+    /// E·H, or 1.
+    pub eh: Vec<f64>,
+}
+
+/// tan² of the angle whose cosine is `c`: (1 − c²)/c², 0 at c ≥ 1.
+#[inline(always)]
+pub(super) fn tan2(c: f64) -> f64 {
+    let c2 = c * c;
+    (1.0 - c2).max(0.0) / c2
 }
 
 impl Rows {
@@ -308,14 +343,57 @@ impl Rows {
             target: v(),
             sw: if weighted { v() } else { Vec::new() },
             weighted,
-            theta_h: std::sync::OnceLock::new(),
+            derived: Derived::default(),
         }
     }
 
     /// θh = acos N·H of every row (N·H clamped to [0, 1]), computed once.
     pub fn theta_h(&self) -> &Vec<f64> {
-        self.theta_h
+        self.derived
+            .theta_h
             .get_or_init(|| self.nh.iter().map(|x| x.clamp(0.0, 1.0).acos()).collect())
+    }
+
+    /// GGX–Smith's parameter-free terms of every row ([`GgxTerms`]), computed once (in
+    /// parallel over many rows).
+    pub fn ggx(&self) -> &GgxTerms {
+        use rayon::prelude::*;
+        self.derived.ggx.get_or_init(|| {
+            let n = self.len();
+            let row = |i: usize| {
+                let (nh, eh) = (self.nh[i], self.eh[i]);
+                let ok = nh > 0.0 && eh > 0.0;
+                let nh2 = nh * nh;
+                [
+                    tan2(self.nl[i]),
+                    tan2(self.ne[i]),
+                    if ok { tan2(nh) } else { 0.0 },
+                    if ok {
+                        0.25 / (std::f64::consts::PI * self.ne[i] * nh2 * nh2)
+                    } else {
+                        0.0
+                    },
+                    if ok { eh } else { 1.0 },
+                ]
+            };
+            let terms: Vec<[f64; 5]> = if n > 1 << 16 {
+                (0..n)
+                    .into_par_iter()
+                    .with_min_len(1 << 14)
+                    .map(row)
+                    .collect()
+            } else {
+                (0..n).map(row).collect()
+            };
+            let col = |k: usize| terms.iter().map(|t| t[k]).collect();
+            GgxTerms {
+                tan2_i: col(0),
+                tan2_o: col(1),
+                tan2_h: col(2),
+                factor: col(3),
+                eh: col(4),
+            }
+        })
     }
 
     /// Number of rows.
@@ -335,7 +413,7 @@ impl Rows {
 
     /// Append a row (its weight is kept only if the columns are weighted).
     pub fn push(&mut self, r: &Row) {
-        self.theta_h = std::sync::OnceLock::new();
+        self.derived = Derived::default();
         self.nl.push(r.g.nl);
         self.ne.push(r.g.ne);
         self.nh.push(r.g.nh);
@@ -449,7 +527,7 @@ impl Rows {
             target,
             sw,
             weighted,
-            theta_h: std::sync::OnceLock::new(),
+            derived: Derived::default(),
         }
     }
 
@@ -466,7 +544,7 @@ impl Rows {
 
     /// Append every row of `other`.
     pub fn extend(&mut self, other: &Rows) {
-        self.theta_h = std::sync::OnceLock::new();
+        self.derived = Derived::default();
         if other.weighted && !self.weighted {
             self.sw = vec![1.0; self.len()];
             self.weighted = true;
@@ -633,7 +711,7 @@ impl BrdfProblem {
             target,
             sw,
             weighted,
-            theta_h: std::sync::OnceLock::new(),
+            derived: Derived::default(),
         };
         BrdfProblem {
             rows: std::sync::Arc::new(rows),
