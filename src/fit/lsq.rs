@@ -296,18 +296,23 @@ pub struct Normal {
     pub jtr: Vec<f64>,
 }
 
+/// The most residuals in a chunk of a pass.
 const CHUNK: usize = 4096;
 
-/// The fewest chunks run in parallel: a MERL table's 16,512 rows (five chunks) and a 10k
-/// synthetic set (three) are, a 2,000-row subsample is not (its pass is too short to repay
-/// waking the other core).
+/// The fewest chunks run in parallel: a MERL table's 16,512 rows and a 10k synthetic set are,
+/// a 2,000-row subsample is not (its pass is too short to repay waking the other core).
 const PARALLEL_CHUNKS: usize = 2;
 
 /// `f` of every chunk of `m` residuals, in chunk order: in parallel when there are enough
 /// chunks to repay waking the thread pool, else on this thread (the same values either way).
+/// The chunks are equal (to a residual) and, when several, an even number: rayon halves the
+/// list, so two cores take the same share (10,000 rows in four chunks of 2,500, not 4,096,
+/// 4,096 and 1,808, of which one core took two). They depend on `m` alone, so every result
+/// is the same on any number of threads.
 fn map_chunks<T: Send>(m: usize, f: impl Fn(std::ops::Range<usize>) -> T + Sync) -> Vec<T> {
     let n = m.div_ceil(CHUNK);
-    let range = |c: usize| c * CHUNK..((c + 1) * CHUNK).min(m);
+    let n = if n >= PARALLEL_CHUNKS { n.next_multiple_of(2) } else { n };
+    let range = |c: usize| c * m / n..(c + 1) * m / n;
     if n < PARALLEL_CHUNKS {
         (0..n).map(range).map(f).collect()
     } else {
