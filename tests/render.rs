@@ -435,6 +435,29 @@ fn render_study_progress_counts_every_row_once() {
     assert_eq!(strip(&rows), strip(&plain));
 }
 
+/// `render fig7`'s progress counts every row of its eight images once (8 × the resolution, in
+/// the adaptive mode the command uses) and leaves the images as they are without it.
+#[test]
+fn fig7_progress_counts_every_row_once() {
+    let aa = AntiAlias::Adaptive {
+        threshold: 0.02,
+        max_level: 3,
+        block: 1,
+        jitter: false,
+    };
+    let (al, mgo) = (Model::blinn_aluminium(), Model::blinn_mgo());
+    let calls = std::sync::atomic::AtomicUsize::new(0);
+    let counted = render::fig7_images_with_progress(&al, &mgo, 40, aa, &|| {
+        calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    });
+    assert_eq!(calls.into_inner(), 8 * 40);
+    let plain = render::fig7_images(&al, &mgo, 40, aa);
+    assert_eq!(counted.len(), 8);
+    for ((a, x), (b, y)) in counted.iter().zip(&plain) {
+        assert_eq!((a, &x.pixels, x.rays), (b, &y.pixels, y.rays));
+    }
+}
+
 #[test]
 fn small_objects_between_corners_are_found() {
     // A sphere far smaller than a pixel, centred between pixel corners: a single centre or

@@ -140,8 +140,13 @@ pub(crate) fn run_render(
                 .check_inputs()
                 .map_err(|e| anyhow!("{flag}: {e}"))?;
         }
+        let bar = if quiet {
+            indicatif::ProgressBar::hidden()
+        } else {
+            progress_bar(8 * res as u64, "rows of 8 images")
+        };
         let t = std::time::Instant::now();
-        let imgs = render::fig7_images(
+        let imgs = render::fig7_images_with_progress(
             &al,
             &mgo,
             res,
@@ -151,7 +156,9 @@ pub(crate) fn run_render(
                 block: 1,
                 jitter: false,
             },
+            &|| bar.inc(1),
         );
+        bar.finish_and_clear();
         for (name, img) in &imgs {
             save_image(img, &output.join(name))?;
         }

@@ -311,7 +311,11 @@ const PARALLEL_CHUNKS: usize = 2;
 /// is the same on any number of threads.
 fn map_chunks<T: Send>(m: usize, f: impl Fn(std::ops::Range<usize>) -> T + Sync) -> Vec<T> {
     let n = m.div_ceil(CHUNK);
-    let n = if n >= PARALLEL_CHUNKS { n.next_multiple_of(2) } else { n };
+    let n = if n >= PARALLEL_CHUNKS {
+        n.next_multiple_of(2)
+    } else {
+        n
+    };
     let range = |c: usize| c * m / n..(c + 1) * m / n;
     if n < PARALLEL_CHUNKS {
         (0..n).map(range).map(f).collect()
@@ -885,6 +889,36 @@ pub fn nelder_mead<P: Problem>(p: &P, x0: &[f64], robust: Robust, limits: &Limit
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+
+    /// A pass's chunks tile the residuals in order, none longer than [`CHUNK`], their lengths
+    /// within one of each other, an even number of them once the pass runs in parallel (so
+    /// rayon's halving gives two cores equal shares), a lone chunk below two chunks' worth.
+    #[test]
+    fn chunks_are_equal_and_even() {
+        for m in [
+            0, 1, 7, 2_000, 4_096, 4_097, 8_192, 10_000, 16_512, 20_000, 1_000_000,
+        ] {
+            let ranges = map_chunks(m, |r| r);
+            let mut next = 0;
+            for r in &ranges {
+                assert_eq!(r.start, next, "m {m}");
+                next = r.end;
+            }
+            assert_eq!(next, m, "m {m}");
+            let lens: Vec<usize> = ranges.iter().map(|r| r.len()).collect();
+            let (lo, hi) = (lens.iter().min(), lens.iter().max());
+            if let (Some(&lo), Some(&hi)) = (lo, hi) {
+                assert!(hi <= CHUNK && hi - lo <= 1, "m {m}: {lens:?}");
+            }
+            let want = match m {
+                0 => 0,
+                1..=4_096 => 1,
+                _ => m.div_ceil(CHUNK).next_multiple_of(2),
+            };
+            assert_eq!(ranges.len(), want, "m {m}");
+        }
+        assert_eq!(map_chunks(10_000, |r| r.len()), vec![2_500; 4]);
+    }
 
     /// Rosenbrock as least squares, r1 = 10(x2 − x1²), r2 = 1 − x1, in a box (none:
     /// [`Rosen::free`]); also used by the argmin wrapper's tests.

@@ -1598,6 +1598,17 @@ pub fn fig7_images(
     res: u32,
     aa: AntiAlias,
 ) -> Vec<(String, Image)> {
+    fig7_images_with_progress(aluminium, mgo, res, aa, &|| {})
+}
+
+/// [`fig7_images`], calling `progress` once per finished image row (8 × `res` calls in all).
+pub fn fig7_images_with_progress(
+    aluminium: &Model,
+    mgo: &Model,
+    res: u32,
+    aa: AntiAlias,
+    progress: &(dyn Fn() + Sync),
+) -> Vec<(String, Image)> {
     let mut out = Vec::new();
     for (mat, ts) in [("aluminium", aluminium), ("mgo", mgo)] {
         for (lname, lighting) in [
@@ -1607,7 +1618,7 @@ pub fn fig7_images(
             for (mname, m) in [("phong", crate::model::equal_beta_phong(ts)), ("ts", *ts)] {
                 let mut s = scene::fig7_scene(m, lighting, res);
                 s.antialias = aa;
-                out.push((format!("{mat}-{lname}-{mname}"), s.render(&|| {})));
+                out.push((format!("{mat}-{lname}-{mname}"), s.render(progress)));
             }
         }
     }
