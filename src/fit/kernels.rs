@@ -158,7 +158,11 @@ fn body<const LOSS: u8, const JAC: bool, const ROB: bool>(
             let x = if dist == Distribution::D2 { d2 } else { nh };
             let cols = [&rows.nl, x, &rows.eh, &rows.g_ne, &rows.target];
             let acc = match dist {
-                Distribution::D1 => drive(rows, range, cols, &TsBlock::<1, _, _, _>(p, res)),
+                Distribution::D1 => {
+                    let [nl, x, eh, gn, tg] = cols;
+                    let cols = [nl, x, rows.ln_nh(), eh, gn, tg];
+                    drive(rows, range, cols, &TsD1Block(p, res))
+                }
                 Distribution::D2 => drive(rows, range, cols, &TsBlock::<2, _, _, _>(p, res)),
                 Distribution::D3 => drive(rows, range, cols, &TsBlock::<3, _, _, _>(p, res)),
                 Distribution::Abc => {
@@ -533,11 +537,10 @@ impl<const LOSS: u8, const JAC: bool, const ROB: bool> Block<7> for Ggx2Block<LO
     }
 }
 
-/// One block of Blinn's Torrance–Sparrow with D1 (`D` = 1), D2 (2) or D3 (3): parameters n, c,
-/// ps, pd; columns nl, x, eh, G/N·E, target with x = N·H (D1, D3) or θh = acos N·H (D2).
+/// One block of Blinn's Torrance–Sparrow with D2 (`D` = 2) or D3 (3): parameters n, c, ps,
+/// pd; columns nl, x, eh, G/N·E, target with x = θh = acos N·H (D2) or N·H (D3).
 /// y = cosθi f_r = pd cosθi/π + ps D F G/(π N·E), as in `model::torrance_sparrow::brdf_grad`
-/// with [`Distribution::eval_dc`]: D1 = (N·H)^c1 = e^(c1 ln N·H) (0 where N·H ≤ 0),
-/// D2 = e^(−(θh c2)²), D3 as [`TsD3`].
+/// with [`Distribution::eval_dc`]: D2 = e^(−(θh c2)²), D3 as [`TsD3`].
 struct TsBlock<const D: u8, const LOSS: u8, const JAC: bool, const ROB: bool>(
     [f64; MAX_PARAMS],
     Res<LOSS, JAC, ROB>,
@@ -550,60 +553,89 @@ impl<const D: u8, const LOSS: u8, const JAC: bool, const ROB: bool> Block
     fn run(&self, c: &[[f64; LANES]; 5], sw: &[f64; LANES], acc: &mut Acc) {
         let p = &self.0;
         let [nl, x, eh, gn, tg] = c;
-        let (n, cc, ps, pd) = (p[0], p[1], p[2], p[3]);
-        let n2m1 = n * n - 1.0;
+        let cc = p[1];
         // D·w and dD/dc·w, w = G/(π N·E), per lane.
         let mut dw = [0.0f64; LANES];
         let mut ddw = [0.0f64; LANES];
-        match D {
-            1 => {
-                let xc: [f64; LANES] = std::array::from_fn(|l| x[l].clamp(0.0, 1.0));
-                let xs: [f64; LANES] =
-                    std::array::from_fn(|l| if xc[l] > 0.0 { xc[l] } else { 1.0 });
-                let lx = lanes::ln(&xs);
-                let e = lanes::exp(&std::array::from_fn(|l| cc * lx[l]));
-                for l in 0..LANES {
-                    let d = if xc[l] > 0.0 { e[l] } else { 0.0 };
-                    let w = gn[l] * FRAC_1_PI;
-                    dw[l] = d * w;
-                    ddw[l] = d * lx[l] * w;
-                }
+        if D == 2 {
+            let e = lanes::exp(&std::array::from_fn(|l| {
+                let t = x[l] * cc;
+                -t * t
+            }));
+            for l in 0..LANES {
+                let w = gn[l] * FRAC_1_PI;
+                dw[l] = e[l] * w;
+                ddw[l] = -2.0 * x[l] * x[l] * cc * e[l] * w;
             }
-            2 => {
-                let e = lanes::exp(&std::array::from_fn(|l| {
-                    let t = x[l] * cc;
-                    -t * t
-                }));
-                for l in 0..LANES {
-                    let w = gn[l] * FRAC_1_PI;
-                    dw[l] = e[l] * w;
-                    ddw[l] = -2.0 * x[l] * x[l] * cc * e[l] * w;
-                }
-            }
-            _ => {
-                let k = TsD3::new([n, cc, 1.0, 0.0]);
-                for l in 0..LANES {
-                    // TsD3's a with F = 1: D w and dD/dc w.
-                    let (d, dd) = k.d(x[l]);
-                    let w = gn[l] * FRAC_1_PI;
-                    dw[l] = d * w;
-                    ddw[l] = dd * w;
-                }
+        } else {
+            let k = TsD3::new([p[0], cc, 1.0, 0.0]);
+            for l in 0..LANES {
+                // TsD3's a with F = 1: D w and dD/dc w.
+                let (d, dd) = k.d(x[l]);
+                let w = gn[l] * FRAC_1_PI;
+                dw[l] = d * w;
+                ddw[l] = dd * w;
             }
         }
-        let mut y = [0.0f64; LANES];
-        let mut dy = [[0.0f64; LANES]; 4];
-        for l in 0..LANES {
-            let (f, df) = fresnel(n, n2m1, eh[l]);
-            let a = dw[l] * f;
-            y[l] = nl[l] * pd * FRAC_1_PI + ps * a;
-            dy[0][l] = ps * dw[l] * df;
-            dy[1][l] = ps * ddw[l] * f;
-            dy[2][l] = a;
-            dy[3][l] = nl[l] * FRAC_1_PI;
-        }
-        self.1.add::<4>(nl, &y, &dy, tg, sw, acc);
+        ts_add(p, &self.1, (&dw, &ddw), [nl, eh, tg], sw, acc);
     }
+}
+
+/// One block of Blinn's Torrance–Sparrow with D1 = (N·H)^c1 = e^(c1 ln N·H), 0 where N·H ≤ 0
+/// (parameters n, c1, ps, pd): columns nl, N·H, ln N·H ([`super::Rows::ln_nh`], computed once
+/// with the rows), eh, G/N·E, target; as [`TsBlock`] otherwise.
+struct TsD1Block<const LOSS: u8, const JAC: bool, const ROB: bool>(
+    [f64; MAX_PARAMS],
+    Res<LOSS, JAC, ROB>,
+);
+
+impl<const LOSS: u8, const JAC: bool, const ROB: bool> Block<6> for TsD1Block<LOSS, JAC, ROB> {
+    #[inline(always)]
+    fn run(&self, c: &[[f64; LANES]; 6], sw: &[f64; LANES], acc: &mut Acc) {
+        let p = &self.0;
+        let [nl, x, lx, eh, gn, tg] = c;
+        let e = lanes::exp(&std::array::from_fn(|l| p[1] * lx[l]));
+        let mut dw = [0.0f64; LANES];
+        let mut ddw = [0.0f64; LANES];
+        for l in 0..LANES {
+            let d = if x[l].clamp(0.0, 1.0) > 0.0 {
+                e[l]
+            } else {
+                0.0
+            };
+            let w = gn[l] * FRAC_1_PI;
+            dw[l] = d * w;
+            ddw[l] = d * lx[l] * w;
+        }
+        ts_add(p, &self.1, (&dw, &ddw), [nl, eh, tg], sw, acc);
+    }
+}
+
+/// Torrance–Sparrow's residuals of one block from D·w and dD/dc·w (w = G/(π N·E)): F and dF/dn
+/// at E·H, y = pd cosθi/π + ps D w F and its gradient in (n, c, ps, pd), added to `acc`.
+#[inline(always)]
+fn ts_add<const LOSS: u8, const JAC: bool, const ROB: bool>(
+    p: &[f64; MAX_PARAMS],
+    res: &Res<LOSS, JAC, ROB>,
+    (dw, ddw): (&[f64; LANES], &[f64; LANES]),
+    [nl, eh, tg]: [&[f64; LANES]; 3],
+    sw: &[f64; LANES],
+    acc: &mut Acc,
+) {
+    let (n, ps, pd) = (p[0], p[2], p[3]);
+    let n2m1 = n * n - 1.0;
+    let mut y = [0.0f64; LANES];
+    let mut dy = [[0.0f64; LANES]; 4];
+    for l in 0..LANES {
+        let (f, df) = fresnel(n, n2m1, eh[l]);
+        let a = dw[l] * f;
+        y[l] = nl[l] * pd * FRAC_1_PI + ps * a;
+        dy[0][l] = ps * dw[l] * df;
+        dy[1][l] = ps * ddw[l] * f;
+        dy[2][l] = a;
+        dy[3][l] = nl[l] * FRAC_1_PI;
+    }
+    res.add::<4>(nl, &y, &dy, tg, sw, acc);
 }
 
 /// One block of Torrance–Sparrow with Löw et al.'s ABC lobe D = (1 + b (1 − N·H))^(−c):
@@ -903,10 +935,11 @@ mod tests {
         }
     }
 
-    /// The kernels of Torrance–Sparrow D2 and GGX–Smith read columns derived from the rows
-    /// and cached (θh; tan² θi, tan² θo, tan² θh, 1/(4π N·E (N·H)⁴), E·H); rows pushed after
-    /// they were computed get theirs (the caches are rebuilt). Each value against its angle's
-    /// definition by acos and tan (an independent path) to 1e-12 relative.
+    /// The kernels of Torrance–Sparrow D1 and D2 and of GGX–Smith read columns derived from the
+    /// rows and cached (ln N·H; θh; tan² θi, tan² θo, tan² θh, 1/(4π N·E (N·H)⁴), E·H); rows
+    /// pushed after they were computed get theirs (the caches are rebuilt). Each value against
+    /// its definition by the library's acos, tan and ln (an independent path): the tangents to
+    /// 1e-12 relative, the logarithm to 1e-15.
     #[test]
     fn derived_columns_follow_the_rows() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
@@ -930,7 +963,13 @@ mod tests {
                 1.0 / (4.0 * std::f64::consts::PI * ne * nh.powi(4))
             ));
             assert_eq!(t.eh[i], rows.eh[i]);
+            let ln = rows.ln_nh()[i];
+            assert!(
+                (ln - nh.ln()).abs() <= 1e-15 * nh.ln().abs().max(1.0),
+                "{ln} {nh}"
+            );
         }
+        assert_eq!(rows.ln_nh().len(), 9);
     }
 
     /// Phong's fast power and Lambert keep the row path; the pixel loss, robust weights and

@@ -294,11 +294,13 @@ pub struct Rows {
 }
 
 /// Parameter-free columns a kernel reads, each computed once on first use ([`Rows::theta_h`],
-/// [`Rows::ggx`]); adding rows drops them.
+/// [`Rows::ln_nh`], [`Rows::ggx`]); adding rows drops them.
 #[derive(Clone, Debug, Default)]
 struct Derived {
     /// θh = acos N·H (Torrance–Sparrow D2's kernel).
     theta_h: std::sync::OnceLock<Vec<f64>>,
+    /// ln N·H (Torrance–Sparrow D1's kernel).
+    ln_nh: std::sync::OnceLock<Vec<f64>>,
     /// GGX–Smith's terms.
     ggx: std::sync::OnceLock<GgxTerms>,
 }
@@ -352,6 +354,24 @@ impl Rows {
         self.derived
             .theta_h
             .get_or_init(|| self.nh.iter().map(|x| x.clamp(0.0, 1.0).acos()).collect())
+    }
+
+    /// ln N·H of every row, N·H clamped to [0, 1] and taken as 1 where it is 0 (Torrance–Sparrow
+    /// D1's kernel masks those rows), computed once in lanes as that kernel did per evaluation
+    /// ([`lanes::ln`]: the same bits).
+    pub fn ln_nh(&self) -> &Vec<f64> {
+        self.derived.ln_nh.get_or_init(|| {
+            let mut out = Vec::with_capacity(self.len().next_multiple_of(LANES));
+            for chunk in self.nh.chunks(LANES) {
+                let xs: [f64; LANES] = std::array::from_fn(|l| {
+                    let x = chunk.get(l).map_or(1.0, |v| v.clamp(0.0, 1.0));
+                    if x > 0.0 { x } else { 1.0 }
+                });
+                out.extend(lanes::ln(&xs));
+            }
+            out.truncate(self.len());
+            out
+        })
     }
 
     /// GGX–Smith's parameter-free terms of every row ([`GgxTerms`]), computed once (in
