@@ -301,7 +301,17 @@ impl GonioGrid {
         let i = (x as usize).min(nt - 2);
         let wt = cr(x - i as f64);
         let (p0, ps, np) = self.ph;
-        let y = ((ph - p0) / ps).rem_euclid(np as f64);
+        // The azimuth index modulo np: within one period of [0, np) (every view from
+        // `estimate`, ph in [−π, π]), the value itself or one addition, as `rem_euclid` gives
+        // it there; `rem_euclid` (a library fmod) only beyond.
+        let (y, npf) = ((ph - p0) / ps, np as f64);
+        let y = if (0.0..npf).contains(&y) {
+            y
+        } else if y > -npf && y < 0.0 {
+            y + npf
+        } else {
+            y.rem_euclid(npf)
+        };
         let j = (y as usize).min(np - 1);
         let wp = cr(y - j as f64);
         // The four azimuth columns j − 1 … j + 2, wrapped once (not a division per tap).
