@@ -281,7 +281,10 @@ struct Planes {
 ///
 /// Each pass sums a pixel's taps in NVIDIA's order, from 0, with the column or row each tap
 /// reads clamped to the image; the loops run over the taps outside and the pixels of a row
-/// inside (the same sums, vectorised).
+/// inside (the same sums, vectorised). Compiled for AVX-512 and AVX2 as well and picked at run
+/// time: wider vectors add each pixel's taps in the same order (Rust forms no fused
+/// multiply-adds), so every instruction set gives the same bits.
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
 fn planes(
     img: &Patch,
     w: usize,
