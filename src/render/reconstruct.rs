@@ -302,8 +302,9 @@ impl GonioGrid {
         let wt = cr(x - i as f64);
         let (p0, ps, np) = self.ph;
         // The azimuth index modulo np: within one period of [0, np) (every view from
-        // `estimate`, ph in [−π, π]), the value itself or one addition, as `rem_euclid` gives
-        // it there; `rem_euclid` (a library fmod) only beyond.
+        // `estimate`, ph in [−π, π], when the grid's first azimuth p0 is below π), the value
+        // itself or one addition, as `rem_euclid` gives it there; `rem_euclid` (a library
+        // fmod) only beyond.
         let (y, npf) = ((ph - p0) / ps, np as f64);
         let y = if (0.0..npf).contains(&y) {
             y
