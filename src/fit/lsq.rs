@@ -545,9 +545,21 @@ pub fn levenberg_marquardt<P: Problem>(
     let mut accepted = vec![ne.cost];
     // Where the cost curves more than JᵀJ says along the step (a large residual), the
     // Gauss–Newton step overshoots and the steps alternate in sign, each a fixed fraction of
-    // the last: a linear rate. Once two accepted steps point opposite ways, every step is
-    // scaled by `shrink`, the minimum of the cost along the last step (see [`step_shrink`]).
-    let mut shrink = 1.0;
+    // the last; where it curves less (the residuals' own curvature against JᵀJ), the step
+    // undershoots and the steps keep one direction, each again a fixed fraction of the last,
+    // the cost falling by more than predicted (gain ratio ρ > 1). Either is a linear rate.
+    // Once two accepted steps point opposite ways, every step is scaled by `gain` ≤ 1, the
+    // minimum of the cost along the last step (see [`line_minimum`]). Once two point the same
+    // way (cosine > ½), the second with ρ > UNDERSHOT, lightly damped (μ < 0.1) and not cut
+    // by a bound, every step is extended likewise to that minimum (gain in [1, MAX_GAIN]),
+    // for as long as the steps keep their direction. An extended step is judged against the
+    // model's prediction for its own step times the gain (what the parabola along the line
+    // gives at its minimum); one rejected, or too long for the step bound, ends the
+    // extension. On the bundled and test files (1,854 fits) this took 6.6 % fewer passes
+    // over the data, a fifth fewer for Phong and Torrance–Sparrow D1/D2.
+    const MAX_GAIN: f64 = 4.0;
+    const UNDERSHOT: f64 = 1.2;
+    let mut gain = 1.0;
     let mut last_step: Option<Vec<f64>> = None;
     while iter < limits.max_iter {
         if evals >= limits.max_eval {
@@ -579,10 +591,15 @@ pub fn levenberg_marquardt<P: Problem>(
         // (floored at 1e-3 of the largest and at the problem's step scale). This stops "parameter evaporation", where a long
         // first step lands on a plateau (an exponential saturated, F ≈ 1) that is a false
         // minimum at infinity; the damping grows until the step fits, without evaluations.
-        h.iter_mut().for_each(|v| *v *= shrink);
+        h.iter_mut().for_each(|v| *v *= gain);
         let xmax = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
         let too_long =
             (0..dim).any(|i| h[i].abs() > x[i].abs().max(1e-3 * xmax).max(scale[i]).max(1e-6));
+        if too_long && gain > 1.0 {
+            // The extension, not the model's step, went too far: the model's step instead.
+            gain = 1.0;
+            continue;
+        }
         if too_long && mu < 1e20 {
             mu *= 2.0;
             continue;
@@ -590,6 +607,8 @@ pub fn levenberg_marquardt<P: Problem>(
         let mut xn: Vec<f64> = x.iter().zip(&h).map(|(a, b)| a + b).collect();
         project(&mut xn, &bounds);
         let step: Vec<f64> = xn.iter().zip(&x).map(|(a, b)| a - b).collect();
+        // A step cut short by a bound leaves the line the extension measures.
+        let clipped = xn.iter().zip(&x).zip(&h).any(|((n, a), b)| *n != a + b);
         let snorm = step
             .iter()
             .zip(&d)
@@ -607,15 +626,23 @@ pub fn levenberg_marquardt<P: Problem>(
             converged = true;
             break;
         }
-        // Predicted reduction of the linear model for the projected step.
-        let mut pred = 0.0;
-        for a in 0..dim {
-            let mut jh = 0.0;
-            for b in 0..dim {
-                jh += ne.jtj[a * dim + b] * step[b];
+        // Predicted reduction of the linear model for t times the projected step.
+        let pred_at = |t: f64| {
+            let mut pred = 0.0;
+            for a in 0..dim {
+                let mut jh = 0.0;
+                for b in 0..dim {
+                    jh += ne.jtj[a * dim + b] * step[b];
+                }
+                pred -= t * step[a] * (ne.jtr[a] + 0.5 * t * jh);
             }
-            pred -= step[a] * (ne.jtr[a] + 0.5 * jh);
-        }
+            pred
+        };
+        let pred = if gain > 1.0 {
+            gain * pred_at(1.0 / gain)
+        } else {
+            pred_at(1.0)
+        };
         if pred >= 0.0 && pred <= limits.ftol * ne.cost && mu < 1.0 {
             // Even the full step would change the cost by less than ftol: converged without
             // spending another pass over the data.
@@ -632,7 +659,8 @@ pub fn levenberg_marquardt<P: Problem>(
         let rho = if pred > 0.0 { actual / pred } else { -1.0 };
         if cn.is_finite() && actual > 0.0 && rho > 0.0 {
             let small = actual <= limits.ftol * ne.cost;
-            let reversed = last_step.as_ref().is_some_and(|l| {
+            // This step against the last, in the scaled norm: opposite, or the same way.
+            let (dot, norms) = last_step.as_ref().map_or((0.0, 0.0), |l| {
                 let (dot, ll, ss) = (0..dim).fold((0.0, 0.0, 0.0), |(a, b, c), i| {
                     (
                         a + l[i] * step[i] * d[i],
@@ -640,11 +668,16 @@ pub fn levenberg_marquardt<P: Problem>(
                         c + step[i] * step[i] * d[i],
                     )
                 });
-                dot < -0.5 * (ll * ss).sqrt()
+                (dot, (ll * ss).sqrt())
             });
-            if reversed || shrink < 1.0 {
-                let slope: f64 = (0..dim).map(|i| ne.jtr[i] * step[i]).sum();
-                shrink = (shrink * step_shrink(slope, -actual)).clamp(0.1, 1.0);
+            let slope: f64 = (0..dim).map(|i| ne.jtr[i] * step[i]).sum();
+            let along = dot > 0.5 * norms;
+            if dot < -0.5 * norms || gain < 1.0 {
+                gain = (gain * line_minimum(slope, -actual)).clamp(0.1, 1.0);
+            } else if along && !clipped && (gain > 1.0 || (rho > UNDERSHOT && mu < 0.1)) {
+                gain = (gain * line_minimum(slope, -actual)).clamp(1.0, MAX_GAIN);
+            } else {
+                gain = 1.0;
             }
             last_step = Some(step);
             x = xn;
@@ -668,6 +701,7 @@ pub fn levenberg_marquardt<P: Problem>(
                 }
             }
         } else {
+            gain = gain.min(1.0);
             mu *= nu;
             nu *= 2.0;
             if mu > 1e20 {
@@ -691,7 +725,7 @@ pub fn levenberg_marquardt<P: Problem>(
 /// The multiple of a step at the minimum of the parabola along it through the cost's slope
 /// `slope` at the start and its change `rise` at the full step: −slope / (2 (rise − slope)),
 /// or 1 where that parabola has no minimum.
-pub(crate) fn step_shrink(slope: f64, rise: f64) -> f64 {
+pub(crate) fn line_minimum(slope: f64, rise: f64) -> f64 {
     let curvature = 2.0 * (rise - slope);
     if slope < 0.0 && curvature > 0.0 {
         -slope / curvature
@@ -1011,10 +1045,10 @@ pub(crate) mod tests {
     #[test]
     fn an_overshooting_step_is_shrunk_to_the_minimum() {
         // The parabola 3 (t − 0.4)²: slope −2.4 at 0, rise 0.6 at 1, minimum at 0.4.
-        assert!((step_shrink(-2.4, 0.6) - 0.4).abs() < 1e-15);
+        assert!((line_minimum(-2.4, 0.6) - 0.4).abs() < 1e-15);
         // No minimum ahead (rising at the start, or not curving up): the full step.
-        assert_eq!(step_shrink(1.0, 2.0), 1.0);
-        assert_eq!(step_shrink(-1.0, -2.0), 1.0);
+        assert_eq!(line_minimum(1.0, 2.0), 1.0);
+        assert_eq!(line_minimum(-1.0, -2.0), 1.0);
         // Gauss–Newton alone would halve the error each step, alternating: 20 steps or more
         // to the default tolerance. Shrunk after the first reversal, a handful.
         let s = levenberg_marquardt(
@@ -1026,6 +1060,27 @@ pub(crate) mod tests {
         assert!(s.converged && s.x[0].abs() < 1e-7, "{s:?}");
         assert!((s.cost - 1.0).abs() < 1e-13, "{s:?}");
         assert!(s.iterations <= 8, "{s:?}");
+    }
+
+    #[test]
+    fn an_undershooting_step_is_extended_to_the_minimum() {
+        // The parabola (t − 2.5)²/2.5: slope −2 at 0, rise −1.6 at 1 (ρ = 1.6 against the
+        // model's 1), minimum at 2.5 = 1/(2 − ρ).
+        assert!((line_minimum(-2.0, -1.6) - 2.5).abs() < 1e-15);
+        // With 0 < λ < 1 the cost curves less than JᵀJ (2 − 2λ against 2): Gauss–Newton
+        // alone leaves λ of the error each step, the same sign, and the minimum along a step
+        // lies 1/(1 − λ) of it ahead. With λ = 0.7 the steps unextended (MAX_GAIN = 1) took
+        // 38 and stopped at x = 2.7e-7, the cost 2.3e-14 above its minimum; extended, 8, at
+        // x = 1.8e-10.
+        let s = levenberg_marquardt(
+            &LargeResidual(0.7),
+            &[0.5],
+            Robust::None,
+            &Limits::default(),
+        );
+        assert!(s.converged && s.x[0].abs() < 1e-8, "{s:?}");
+        assert!((s.cost - 1.0).abs() < 1e-14, "{s:?}");
+        assert!(s.iterations <= 10, "{s:?}");
     }
 
     /// r1 = 1 (no parameter reaches it), r2 = 10⁻³/x, x > 0: the cost ½ + ½·10⁻⁶/x² falls
