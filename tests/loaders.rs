@@ -272,6 +272,29 @@ fn crlf_and_bom_are_accepted() {
 }
 
 #[test]
+fn padded_fields_read_as_plain_ones() {
+    // Spaces and tabs around header names and fields are not part of them; a padded empty
+    // value field is a missing value, a padded empty angle is an error naming its line.
+    let dir = tempfile::tempdir().unwrap();
+    let plain = "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,brdf_r,brdf_g,weight\n10,0,20,180,0.5,,1\n30,0,40,0,0.25,0.125,2\n";
+    let padded = " theta_i_deg ,\tphi_i_deg,theta_o_deg , phi_o_deg,brdf_r ,  brdf_g,weight \n 10 ,0,\t20,180 , 0.5,  ,1\n30,0 ,40,0,0.25 ,0.125, 2\n";
+    let a = load(&write(dir.path(), "a.csv", plain.as_bytes()));
+    let b = load(&write(dir.path(), "b.csv", padded.as_bytes()));
+    assert_same(&a, &b, "padded");
+    assert!(b.channels[1].values[0].is_nan());
+    assert_eq!(b.weights, Some(vec![1.0, 2.0]));
+    let bad =
+        "theta_i_deg, phi_i_deg ,theta_o_deg,phi_o_deg,brdf\n10,0,20,180,0.5\n30,  ,40,0,0.25\n";
+    let e = load_with(
+        &write(dir.path(), "c.csv", bad.as_bytes()),
+        NegativePolicy::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("c.csv:3: column phi_i_deg: empty angle"), "{e}");
+}
+
+#[test]
 fn spectral_reduction() {
     let ds = load(&root().join("data/cayman.astm"));
     let s550 = ds.select(&ChannelSelect::parse("550nm")).unwrap();

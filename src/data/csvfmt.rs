@@ -74,12 +74,13 @@ pub(crate) fn load_csv(
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(true)
         .comment(Some(b'#'))
-        .trim(csv::Trim::All)
         .flexible(false)
         .from_reader(reader);
     let header_line = offset + 1;
-    let headers = match rdr.headers() {
-        Ok(h) => h.clone(),
+    // Fields are trimmed here rather than by the reader (`csv::Trim::All` builds a new record
+    // for every row: a third of the time to read a million rows).
+    let headers: csv::StringRecord = match rdr.headers() {
+        Ok(h) => h.iter().map(str::trim).collect(),
         Err(e) => return Err(csv_error(path, offset, e)),
     };
     if headers.is_empty() || (headers.len() == 1 && headers[0].is_empty()) {
@@ -121,6 +122,7 @@ pub(crate) fn load_csv(
         let mut angles = [0.0; 4];
         let mut weight = None;
         for (field, (col, name)) in record.iter().zip(cols.iter().zip(headers.iter())) {
+            let field = field.trim();
             match col {
                 Col::Angle(k, f) => {
                     if field.is_empty() {
