@@ -47,7 +47,7 @@ pub use fitfile::{
 pub use lsq::{Limits, Method};
 use lsq::{Problem, Robust, Solution};
 pub use problem::Loss;
-use problem::{BrdfProblem, Rows, Slot, Transform};
+use problem::{BrdfProblem, RowWriter, Rows, Slot, Transform};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Instant;
 

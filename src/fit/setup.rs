@@ -22,8 +22,8 @@ pub(super) fn channel_rows(ds: &Dataset, c: usize, opts: &FitOptions) -> Channel
         .as_ref()
         .is_some_and(|w| w.iter().any(|&v| v != 1.0));
     // Geometry of every sample, in parallel over fixed chunks joined in sample order.
-    let rows = Rows::par_fill(ds.len(), weighted, |range, cols| {
-        fill_rows(ds, vals, weights.as_deref(), max, opts.loss, range, cols)
+    let rows = Rows::par_fill(ds.len(), weighted, |range, out| {
+        fill_rows(ds, vals, weights.as_deref(), max, opts.loss, range, out)
     });
     // ln(1 + 0) = 0 and f = 0: a zero target is a zero value under either loss. (On many rows
     // the two scans side by side: 8 MB each for a million rows.)
@@ -149,11 +149,9 @@ pub fn solid_angle_weights(ds: &Dataset) -> Vec<f64> {
     w
 }
 
-/// Rows of samples `range` of channel values `vals` written to the front of `cols` (the
-/// layout of [`Rows::write`]; an empty √weight column is left unwritten); returns how many
-/// were kept. [`LANES`] samples at a time, so
-/// the trigonometry and logarithms vectorise; compiled for AVX-512 and AVX2 as well and picked
-/// at run time.
+/// The rows of samples `range` of channel values `vals` that a fit keeps, pushed to `out`.
+/// [`LANES`] samples at a time, so the trigonometry and logarithms vectorise; compiled for
+/// AVX-512 and AVX2 as well and picked at run time.
 #[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
 pub(super) fn fill_rows(
     ds: &Dataset,
@@ -162,10 +160,9 @@ pub(super) fn fill_rows(
     max: Option<f64>,
     loss: Loss,
     range: std::ops::Range<usize>,
-    mut cols: [&mut [f64]; 8],
-) -> usize {
+    out: &mut RowWriter,
+) {
     let q = ds.quantity;
-    let mut kept = 0;
     // LANES samples at a time, so the trigonometry and logarithms vectorise.
     let mut k = range.start;
     while k < range.end {
@@ -192,7 +189,7 @@ pub(super) fn fill_rows(
             Loss::Linear => v,
             Loss::Pixel => y.map(|x| problem::pixel(x).0),
         };
-        // L·E = sinθi sinθo cos(φo − φi) + cosθi cosθo. Columns in the order of [`Rows::write`].
+        // L·E = sinθi sinθo cos(φo − φi) + cosθi cosθo. Columns in the order of [`RowWriter`].
         let mut col = [[0.0; LANES]; 8];
         let mut keep = [false; LANES];
         let mut w = [1.0; LANES];
@@ -211,23 +208,14 @@ pub(super) fn fill_rows(
         }
         if keep.iter().all(|&x| x) {
             // The usual case: the whole block is kept, written a lane vector at a time.
-            for (c, x) in cols.iter_mut().zip(&col).filter(|(c, _)| !c.is_empty()) {
-                c[kept..kept + LANES].copy_from_slice(x);
-            }
-            kept += LANES;
+            out.push_block(&col);
         } else {
-            for l in 0..n {
-                if keep[l] {
-                    for (c, x) in cols.iter_mut().zip(&col).filter(|(c, _)| !c.is_empty()) {
-                        c[kept] = x[l];
-                    }
-                    kept += 1;
-                }
+            for l in (0..n).filter(|&l| keep[l]) {
+                out.push_lane(&col, l);
             }
         }
         k += n;
     }
-    kept
 }
 /// A reported parameter: its name (with `_<channel>` when per channel) and its slot.
 #[derive(Clone, Debug)]
