@@ -278,16 +278,6 @@ pub struct RowWriter<'a> {
 }
 
 impl RowWriter<'_> {
-    /// Rows pushed so far.
-    pub fn len(&self) -> usize {
-        self.len
-    }
-
-    /// True before the first push.
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-
     /// Push [`LANES`] rows: row l's value of column j is `block[j][l]`. Panics (before
     /// counting them) if the part has no room for them.
     #[inline(always)]
@@ -1272,12 +1262,25 @@ impl TsD3 {
 mod tests {
     /// Rows filled in parallel chunks, some kept a block at a time and some row by row, come
     /// out in input order with every column right (written without zeroing first): inputs
-    /// dropped in runs that straddle chunk and block edges, with and without weights.
+    /// dropped singly and in runs that straddle chunk and block edges, with and without
+    /// weights, in one chunk, two and three. Both ways of pushing must be exercised.
     #[test]
     fn par_fill_keeps_rows_in_input_order() {
         use super::{LANES, Rows};
-        let dropped = |i: usize| i % 7 == 3 || (20_000..20_100).contains(&i);
-        for (n, weighted) in [(0, false), (5, true), (4_096, false), (40_003, true)] {
+        use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
+        // 40,003 inputs are cut at 13,335 and 26,670; 20,000 at 10,000.
+        let dropped = |i: usize| {
+            i % 29 == 3 || (13_300..13_400).contains(&i) || (20_000..20_100).contains(&i)
+        };
+        for (n, weighted) in [
+            (0, false),
+            (5, true),
+            (4_096, false),
+            (20_000, true),
+            (40_003, true),
+            (40_003, false),
+        ] {
+            let (blocks, lanes) = (AtomicUsize::new(0), AtomicUsize::new(0));
             let rows = Rows::par_fill(n, weighted, |range, out| {
                 let mut k = range.start;
                 while k < range.end {
@@ -1286,17 +1289,31 @@ mod tests {
                         std::array::from_fn(|j| std::array::from_fn(|l| (10 * (k + l) + j) as f64));
                     if m == LANES && (k..k + m).all(|i| !dropped(i)) {
                         out.push_block(&block);
+                        blocks.fetch_add(1, Relaxed);
                     } else {
                         for l in (0..m).filter(|&l| !dropped(k + l)) {
                             out.push_lane(&block, l);
+                            lanes.fetch_add(1, Relaxed);
                         }
                     }
                     k += m;
                 }
             });
+            if n >= 4_096 {
+                assert!(
+                    blocks.load(Relaxed) > 0 && lanes.load(Relaxed) > 0,
+                    "n = {n}"
+                );
+            }
             let kept: Vec<usize> = (0..n).filter(|&i| !dropped(i)).collect();
             let col =
                 |j: usize| -> Vec<f64> { kept.iter().map(|&i| (10 * i + j) as f64).collect() };
+            // The first wrong row, not two columns of 40,000 numbers.
+            let first_difference = |a: &[f64], b: &[f64]| {
+                (a.len() != b.len())
+                    .then_some(a.len().min(b.len()))
+                    .or_else(|| a.iter().zip(b).position(|(x, y)| x != y))
+            };
             assert_eq!(rows.len(), kept.len(), "n = {n}");
             let got = [
                 &rows.nl,
@@ -1308,13 +1325,10 @@ mod tests {
                 &rows.target,
             ];
             for (j, c) in got.into_iter().enumerate() {
-                assert_eq!(*c, col(j), "n = {n}, column {j}");
+                assert_eq!(first_difference(c, &col(j)), None, "n = {n}, column {j}");
             }
-            assert_eq!(
-                rows.sw,
-                if weighted { col(7) } else { Vec::new() },
-                "n = {n}"
-            );
+            let sw = if weighted { col(7) } else { Vec::new() };
+            assert_eq!(first_difference(&rows.sw, &sw), None, "n = {n}, weights");
         }
     }
 
