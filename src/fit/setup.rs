@@ -195,6 +195,8 @@ pub(super) fn fill_rows(
         let mut w = [1.0; LANES];
         if let Some(ws) = weights {
             w[..n].copy_from_slice(&ws[k..k + n]);
+            // √weight only where there are weights (a square root per row is not free).
+            col[7] = w.map(f64::sqrt);
         }
         let m = max.unwrap_or(f64::INFINITY);
         for l in 0..LANES {
@@ -204,7 +206,7 @@ pub(super) fn fill_rows(
             [
                 col[0][l], col[1][l], col[2][l], col[3][l], col[4][l], col[5][l],
             ] = [g.nl, g.ne, g.nh, g.eh, g.re, g.g_ne];
-            (col[6][l], col[7][l]) = (target[l], w[l].sqrt());
+            col[6][l] = target[l];
         }
         if keep.iter().all(|&x| x) {
             // The usual case: the whole block is kept, written a lane vector at a time.
