@@ -235,3 +235,40 @@ fn values_outside_the_model_range_are_flagged_and_two_lights_remove_the_ambiguit
     let px = inverse::invert_line_two_lights(&[v(l)], &[v(l2)], l, l2, 0.1, 1.0, 1.0);
     assert!((px[0].normal[0] - n[0]).abs() < 1e-12 && (px[0].normal[1] - n[1]).abs() < 1e-12);
 }
+
+/// An exact cylinder cross-section (no renderer): I = Ca + Cd·max(0, L·N) with N = (u, √(1 − u²))
+/// along the line, the light from 75° on one side of the view axis to 60° on the other. Every
+/// pixel the light reaches (N·L ≥ 0.15) gets its true normal, before and past the brightest
+/// pixel, where the two solution branches meet (the prior picks the first pixel's branch,
+/// continuity the rest).
+#[test]
+fn an_exact_cylinder_inverts_with_the_light_off_the_view_axis() {
+    let n = 401;
+    let us: Vec<f64> = (0..n)
+        .map(|k| -0.999 + 1.998 * k as f64 / (n - 1) as f64)
+        .collect();
+    for deg in [0.0f64, 10.0, 24.0, 45.0, 60.0, 75.0, -30.0, -60.0] {
+        let (lu, lz) = (deg.to_radians().sin(), deg.to_radians().cos());
+        let truth = |u: f64| [u, (1.0 - u * u).sqrt()];
+        let vals: Vec<f64> = us
+            .iter()
+            .map(|&u| 0.1 + (lu * truth(u)[0] + lz * truth(u)[1]).max(0.0))
+            .collect();
+        let px = inverse::invert_line(&vals, [lu, lz], 0.1, 1.0, 1.0, Prior::Convex);
+        let mut lit = 0;
+        for (p, &u) in px.iter().zip(&us) {
+            let t = truth(u);
+            if lu * t[0] + lz * t[1] < 0.15 {
+                continue;
+            }
+            lit += 1;
+            assert!(!p.flagged, "light {deg}°: u {u} flagged");
+            let err = (p.normal[0] * t[0] + p.normal[1] * t[1])
+                .clamp(-1.0, 1.0)
+                .acos()
+                .to_degrees();
+            assert!(err < 0.01, "light {deg}°: u {u}: normal off by {err}°");
+        }
+        assert!(lit > n / 3, "light {deg}°: only {lit} lit pixels");
+    }
+}
