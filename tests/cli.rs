@@ -1196,6 +1196,9 @@ fn fit_files_are_read_strictly_by_every_consumer() {
     let good = write(dir.path(), "good.json", ts(MGO, "").as_bytes());
     let out = dir.path().join("out");
     let o = out.to_str().unwrap();
+    // Commands that write a folder get their own name: a file output may not name a folder.
+    let folder = dir.path().join("folder");
+    let od = folder.to_str().unwrap();
     let consumers = |f: &str| -> Vec<Vec<String>> {
         let v = |a: &[&str]| a.iter().map(|s| s.to_string()).collect::<Vec<_>>();
         vec![
@@ -1209,11 +1212,11 @@ fn fit_files_are_read_strictly_by_every_consumer() {
                 f,
                 "data/blinn-mgo.csv",
                 "-o",
-                o,
+                od,
             ]),
             v(&["plot", "slice", "--fit", f, "data/blinn-mgo.csv", "-o", o]),
             v(&["plot", "albedo", "--fit", f, "-o", o]),
-            v(&["render", "fig7", "--mgo", f, "--res", "8", "-o", o]),
+            v(&["render", "fig7", "--mgo", f, "--res", "8", "-o", od]),
             v(&[
                 "inverse",
                 "no-such.png",
@@ -1381,7 +1384,9 @@ fn a_fit_of_another_channel_is_refused() {
     let f = f.to_str().unwrap();
     let o = dir.path().join("o");
     for cmd in ["residuals", "slice"] {
-        // Without --channel the data's channel is the fit's (CIE Y), said on stderr.
+        // Without --channel the data's channel is the fit's (CIE Y), said on stderr. (Each
+        // its own output: residuals writes a folder, which slice's file output may not name.)
+        let own = dir.path().join(cmd);
         let r = brdfit(&[
             "plot",
             cmd,
@@ -1389,7 +1394,7 @@ fn a_fit_of_another_channel_is_refused() {
             f,
             "tests/data/garnet_red.astm",
             "-o",
-            o.to_str().unwrap(),
+            own.to_str().unwrap(),
         ]);
         let err = String::from_utf8_lossy(&r.stderr);
         assert!(r.status.success(), "{err}");

@@ -705,3 +705,65 @@ fn fix_and_start_errors_name_the_command_line() {
     assert!(!err.contains("blinn-mgo.csv"), "{err}");
     ok(&["fit", data, "--start", "c3=0.5"]);
 }
+
+/// `-o DIR` naming an existing folder, for a command that writes files named by -o (a scene's
+/// render, a plot): refused with the fix, where it used to write DIR.png and DIR.exr beside the
+/// folder; nothing is written; the fix followed writes inside the folder.
+#[test]
+fn an_existing_folder_as_a_file_output_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sc = write(d, "s.toml", scene("lambert", "{ pd = 0.5 }").as_bytes());
+    let out = d.join("renders");
+    std::fs::create_dir(&out).unwrap();
+    let o = out.to_str().unwrap();
+    let err = fails(
+        &["render", sc.to_str().unwrap(), "-o", o],
+        &[
+            "is a folder",
+            "writes png and exr files",
+            "fix: give a file name",
+        ],
+    );
+    for ext in ["png", "exr"] {
+        assert!(!out.with_extension(ext).exists(), "{err}");
+    }
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 0, "{err}");
+    let fixed = word_after(&err, "e.g. -o ");
+    assert_eq!(Path::new(fixed).parent(), Some(out.as_path()), "{err}");
+    let wrote = ok(&["render", sc.to_str().unwrap(), "-o", fixed]);
+    assert!(wrote.contains(&format!("wrote {fixed}")), "{wrote}");
+    assert!(Path::new(fixed).is_file());
+    // A plot likewise.
+    let fit = d.join("f.json");
+    ok(&[
+        "fit",
+        "data/blinn-mgo.csv",
+        "--model",
+        "phong",
+        "--json",
+        fit.to_str().unwrap(),
+    ]);
+    let lobe = |o: &str| {
+        vec![
+            "plot".to_string(),
+            "lobe".into(),
+            "--fit".into(),
+            fit.to_str().unwrap().into(),
+            "--data".into(),
+            "data/blinn-mgo.csv".into(),
+            "-o".into(),
+            o.into(),
+        ]
+    };
+    let args = lobe(o);
+    let err = fails(
+        &args.iter().map(String::as_str).collect::<Vec<_>>(),
+        &["is a folder", "writes svg and png files"],
+    );
+    assert!(!out.with_extension("svg").exists(), "{err}");
+    let fixed = word_after(&err, "e.g. -o ").to_string();
+    let args = lobe(&fixed);
+    ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(Path::new(&fixed).with_extension("png").is_file());
+}

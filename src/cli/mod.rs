@@ -93,8 +93,23 @@ pub(crate) fn wrote_all<'a>(paths: impl IntoIterator<Item = &'a PathBuf>) {
 /// The base name of an output written as BASE.EXT for each extension of `exts` (e.g. png and
 /// exr): `-o NAME` without an extension, or with one of `exts` (any case), is that base; any
 /// other extension is refused with the fix, where it used to be replaced silently (`-o x.jpg`
-/// wrote x.png).
+/// wrote x.png). So is an existing folder, whose name used to become the base (`-o renders`
+/// wrote renders.png beside the folder, not in it).
 pub(crate) fn output_base(output: &Path, exts: &[&str]) -> Result<PathBuf> {
+    if output.is_dir() {
+        let name = match exts[0] {
+            "png" => "image",
+            "csv" => "profile",
+            _ => "chart",
+        };
+        bail!(
+            "-o {}: is a folder; this command writes {} files named by -o\n  fix: give a file \
+             name, e.g. -o {}",
+            output.display(),
+            exts.join(" and "),
+            output.join(format!("{name}.{}", exts[0])).display()
+        );
+    }
     match output.extension().map(|e| e.to_string_lossy()) {
         None => Ok(output.to_path_buf()),
         Some(e) if exts.iter().any(|x| x.eq_ignore_ascii_case(&e)) => Ok(output.with_extension("")),
