@@ -333,7 +333,7 @@ pub struct CaseResult {
     /// Why, in words a person can act on.
     #[serde(default)]
     pub reason: String,
-    /// The reference's own error, by cross-validation ([`verdict`]).
+    /// The reference's own error, by cross-validation (`choose::verdict`).
     #[serde(default)]
     pub reference_error: Option<ReferenceError>,
     /// One row per candidate.
@@ -779,7 +779,7 @@ pub fn choose(
 /// How many progress lines [`choose_with`] gives for `ds` and `cases`: one per candidate's
 /// global fit; for the resampling, one as it starts, one for the resampling base's fit when
 /// no candidate is Torrance–Sparrow (ABC), one as the table is rebuilt, one per
-/// cross-validation fold ([`verdict::fold_count`]) and one as it ends; then per case its
+/// cross-validation fold (`verdict::fold_count`) and one as it ends; then per case its
 /// reference, its cross-validation and each candidate.
 pub fn progress_steps(ds: &Dataset, cases: &[Case], opts: &ChooseOptions) -> usize {
     let abc = (ModelKind::TorranceSparrow, Distribution::Abc);

@@ -4,7 +4,7 @@
 //!
 //! The data flows through the modules in order: [`data`] (samples and loaders) →
 //! [`model`] (the BRDFs of Phong 1975, Blinn 1977 and GGX–Smith, with analytic gradients) →
-//! fit, plot, render, choose and report. [`simulate`] makes synthetic samples. The items most
+//! fit, plot, render, choose and report. [`simulate()`] makes synthetic samples. The items most
 //! programs need are re-exported here; modules marked hidden in these docs (`output`,
 //! `setting`, `fit::lsq`, `fit::problem`, `data::merl`) are public only because the binary
 //! and the integration tests are separate crates, and are not library API.

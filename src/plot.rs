@@ -271,7 +271,7 @@ type XyContext<'a, DB> = ChartContext<
 >;
 
 /// The colour of measured samples in every chart (markers), so "measured" reads the same
-/// everywhere; models take [`PALETTE`] in turn.
+/// everywhere; models take `PALETTE` in turn.
 pub const MEASURED: RGBColor = RGBColor(0, 0, 0);
 
 /// How the `k`-th model curve of a chart is stroked: (width, dash length, gap) in pixels, a gap
@@ -1251,7 +1251,7 @@ pub struct SliceChart {
     pub title: String,
     /// Grid size.
     pub n: usize,
-    /// Left image (data) and right image (fit), row-major [θh][θd].
+    /// Left image (data) and right image (fit), row-major, indexed `[θh][θd]`.
     pub images: [Vec<f64>; 2],
 }
 

@@ -114,7 +114,7 @@ pub fn inline_html(s: &str) -> String {
 const RANGES_INLINE: usize = 6;
 
 /// The summary of a data file (`brdfit info`) as it opens a data set's section: with more
-/// than [`RANGES_INLINE`] channels, their per-channel `range` lines become one line (the
+/// than `RANGES_INLINE` channels, their per-channel `range` lines become one line (the
 /// overall range and the count) and the list is folded away (HTML `<details>`), so the
 /// results are not pushed down by 31 lines of ranges.
 pub fn folded_summary(text: &str) -> (String, Option<String>) {

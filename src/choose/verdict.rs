@@ -207,7 +207,7 @@ fn fold_plan(ds: &Dataset) -> Vec<(String, FoldKind, Keep<'_>)> {
     out
 }
 
-/// The cross-validation folds of `ds` ([`fold_sets`]), in parallel, `progress` called as each
+/// The cross-validation folds of `ds` (`fold_sets`), in parallel, `progress` called as each
 /// ends (their fits counting in `watch`): each subset's own fit of the base model (`kind`,
 /// `dist`; the full data's `fill` where that fit fails or is not usable), and the subset
 /// rebuilt on it ([`crate::render::reconstruct::reconstruct`]) on a

@@ -671,7 +671,7 @@ pub fn ticking<T>(
 }
 
 /// [`fit_models`], calling `progress(done, total, running)` as each channel's fit of a model
-/// starts and ends: `done` of `total` units of work (each fit weighs [`work_weight`], its
+/// starts and ends: `done` of `total` units of work (each fit weighs `work_weight`, its
 /// relative cost, so a bar's estimate of the time left holds while one dear fit runs for
 /// seconds: a full MERL table's ggx-smith-2), `running` the fits under way, e.g.
 /// `ggx-smith-2 (r), torrance-sparrow (abc) (g)`, and every [`TICK`] while fits run, with the

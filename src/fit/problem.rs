@@ -271,7 +271,7 @@ pub struct Row {
 /// Where one chunk of [`Rows::par_fill`] puts the rows it keeps: its part of each column's
 /// reserved (not yet written) memory, in the order nl, ne, nh, eh, re, g_ne, target, √weight
 /// (an absent column: an empty part, skipped). Every push writes the row to every present
-/// column, so the first [`RowWriter::len`] entries of each are set.
+/// column, so the first `len` entries of each are set.
 pub struct RowWriter<'a> {
     cols: [&'a mut [std::mem::MaybeUninit<f64>]; 8],
     len: usize,
@@ -1007,7 +1007,7 @@ pub fn abc_shape_rows(b: f64, cs: &[f64], nh: &[f64], out: &mut Vec<f64>) {
     kernels::abc_shape_rows(b, cs, nh, out)
 }
 
-/// f_r of `model` at rows `range` (the lane form of [`TsD3`] for Torrance–Sparrow with D3).
+/// f_r of `model` at rows `range` (the lane form of `TsD3` for Torrance–Sparrow with D3).
 pub fn brdf_values(model: &Model, rows: &Rows, range: std::ops::Range<usize>) -> Vec<f64> {
     if model.kind == ModelKind::TorranceSparrow && model.dist == Distribution::D3 {
         ts_d3_values(p4(model), rows, range)

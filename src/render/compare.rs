@@ -61,7 +61,7 @@ fn pq_lanes(nits: &[f64; LANES]) -> [f64; LANES] {
 }
 
 /// (I, T, P) of a linear BT.709 colour shown at [`DISPLAY_WHITE_NITS`]: BT.709 → BT.2020
-/// (BT.2087), BT.2020 → LMS and ICtCp (BT.2100), T = Ct / 2 (BT.2124). PQ as [`pq_lanes`]
+/// (BT.2087), BT.2020 → LMS and ICtCp (BT.2100), T = Ct / 2 (BT.2124). PQ as `pq_lanes`
 /// computes it, so a colour has the same ITP alone and in an image.
 pub fn itp(rgb709: [f64; 3]) -> [f64; 3] {
     itp_lanes(&[rgb709; LANES])[0]

@@ -1364,7 +1364,7 @@ struct Subdivision<'a> {
 /// A ray's nearest hit: object index, t, outward normal.
 type Hit = (usize, f64, DVec3);
 
-/// What a light contributes at a surface point before any material ([`Scene::light_at`]).
+/// What a light contributes at a surface point before any material (`Scene::light_at`).
 #[derive(Clone, Copy, Debug)]
 pub enum LightAt {
     /// Light or eye below the surface: no shadow ray.
