@@ -734,6 +734,7 @@ fn an_existing_folder_as_a_file_output_is_refused() {
     let wrote = ok(&["render", sc.to_str().unwrap(), "-o", fixed]);
     assert!(wrote.contains(&format!("wrote {fixed}")), "{wrote}");
     assert!(Path::new(fixed).is_file());
+    let exr = Path::new(fixed).with_extension("exr");
     // A plot likewise.
     let fit = d.join("f.json");
     ok(&[
@@ -763,7 +764,36 @@ fn an_existing_folder_as_a_file_output_is_refused() {
     );
     assert!(!out.with_extension("svg").exists(), "{err}");
     let fixed = word_after(&err, "e.g. -o ").to_string();
+    assert_eq!(Path::new(&fixed).parent(), Some(out.as_path()), "{err}");
     let args = lobe(&fixed);
     ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
     assert!(Path::new(&fixed).with_extension("png").is_file());
+    // And `inverse` (three files from one base), on the render's own EXR.
+    let inverse = |o: &str| {
+        let e = exr.to_str().unwrap();
+        [
+            "inverse", e, "--row", "3", "--light", "0,0,1", "--cd", "1", "-o", o,
+        ]
+        .map(String::from)
+    };
+    let before = std::fs::read_dir(&out).unwrap().count();
+    let err = fails(
+        &inverse(o).iter().map(String::as_str).collect::<Vec<_>>(),
+        &[
+            "is a folder",
+            "writes csv, svg and png files",
+            "fix: give a file name",
+        ],
+    );
+    for ext in ["csv", "svg", "png"] {
+        assert!(!out.with_extension(ext).exists(), "{err}");
+    }
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), before, "{err}");
+    let fixed = word_after(&err, "e.g. -o ").to_string();
+    assert_eq!(Path::new(&fixed).parent(), Some(out.as_path()), "{err}");
+    ok(&inverse(&fixed)
+        .iter()
+        .map(String::as_str)
+        .collect::<Vec<_>>());
+    assert!(Path::new(&fixed).with_extension("csv").is_file());
 }

@@ -90,6 +90,15 @@ pub(crate) fn wrote_all<'a>(paths: impl IntoIterator<Item = &'a PathBuf>) {
     }
 }
 
+/// A list for a message: "a", "a and b", "a, b and c".
+fn words<S: AsRef<str>>(items: &[S]) -> String {
+    let items: Vec<&str> = items.iter().map(AsRef::as_ref).collect();
+    match items.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
+        _ => items.concat(),
+    }
+}
+
 /// The base name of an output written as BASE.EXT for each extension of `exts` (e.g. png and
 /// exr): `-o NAME` without an extension, or with one of `exts` (any case), is that base; any
 /// other extension is refused with the fix, where it used to be replaced silently (`-o x.jpg`
@@ -106,7 +115,7 @@ pub(crate) fn output_base(output: &Path, exts: &[&str]) -> Result<PathBuf> {
             "-o {}: is a folder; this command writes {} files named by -o\n  fix: give a file \
              name, e.g. -o {}",
             output.display(),
-            exts.join(" and "),
+            words(exts),
             output.join(format!("{name}.{}", exts[0])).display()
         );
     }
@@ -121,9 +130,9 @@ pub(crate) fn output_base(output: &Path, exts: &[&str]) -> Result<PathBuf> {
             bail!(
                 "-o {}: this command writes {} files, not .{e}\n  fix: give -o {} (it writes {})",
                 output.display(),
-                exts.join(" and "),
+                words(exts),
                 output.with_extension(exts[0]).display(),
-                files.join(" and ")
+                words(&files)
             )
         }
     }

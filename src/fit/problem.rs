@@ -1267,10 +1267,13 @@ mod tests {
     #[test]
     fn par_fill_keeps_rows_in_input_order() {
         use super::{LANES, Rows};
-        use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
+        use std::sync::Mutex;
         // 40,003 inputs are cut at 13,335 and 26,670; 20,000 at 10,000.
         let dropped = |i: usize| {
-            i % 29 == 3 || (13_300..13_400).contains(&i) || (20_000..20_100).contains(&i)
+            i % 29 == 3
+                || (9_950..10_050).contains(&i)
+                || (13_300..13_400).contains(&i)
+                || (20_000..20_100).contains(&i)
         };
         for (n, weighted) in [
             (0, false),
@@ -1280,8 +1283,10 @@ mod tests {
             (40_003, true),
             (40_003, false),
         ] {
-            let (blocks, lanes) = (AtomicUsize::new(0), AtomicUsize::new(0));
+            // Per chunk: its first input, and how many blocks and single lanes it pushed.
+            let pushes = Mutex::new(Vec::new());
             let rows = Rows::par_fill(n, weighted, |range, out| {
+                let (mut blocks, mut lanes) = (0, 0);
                 let mut k = range.start;
                 while k < range.end {
                     let m = (range.end - k).min(LANES);
@@ -1289,21 +1294,34 @@ mod tests {
                         std::array::from_fn(|j| std::array::from_fn(|l| (10 * (k + l) + j) as f64));
                     if m == LANES && (k..k + m).all(|i| !dropped(i)) {
                         out.push_block(&block);
-                        blocks.fetch_add(1, Relaxed);
+                        blocks += 1;
                     } else {
                         for l in (0..m).filter(|&l| !dropped(k + l)) {
                             out.push_lane(&block, l);
-                            lanes.fetch_add(1, Relaxed);
+                            lanes += 1;
                         }
                     }
                     k += m;
                 }
+                pushes.lock().unwrap().push((range.start, blocks, lanes));
             });
+            let mut pushes = pushes.into_inner().unwrap();
+            pushes.sort_unstable();
+            let chunks = match n {
+                0..=4_096 => 1,
+                20_000 => 2,
+                _ => 3,
+            };
+            if n > 0 {
+                assert_eq!(pushes.len(), chunks, "n = {n}: {pushes:?}");
+            }
             if n >= 4_096 {
-                assert!(
-                    blocks.load(Relaxed) > 0 && lanes.load(Relaxed) > 0,
-                    "n = {n}"
-                );
+                for &(start, blocks, lanes) in &pushes {
+                    assert!(
+                        blocks > 0 && lanes > 0,
+                        "n = {n}, chunk at {start}: {pushes:?}"
+                    );
+                }
             }
             let kept: Vec<usize> = (0..n).filter(|&i| !dropped(i)).collect();
             let col =
