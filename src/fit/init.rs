@@ -854,6 +854,13 @@ pub(super) fn nnls(a: &[f64], b: &[f64], free: &[bool]) -> Vec<f64> {
     x.iter().map(|v| v.max(0.0)).collect()
 }
 
+/// The linearised cost ½ Σ w (a·s + b − f)² of one lobe's basis s with coefficients
+/// x = (a, b) from the sums alone: `g` = [Σws², Σws, Σw], `h` = [Σwfs, Σwf], `ff` = Σwf²
+/// (expanded: ½ (a²Σws² + 2abΣws + b²Σw + Σwf²) − aΣwfs − bΣwf).
+pub(super) fn linearised_cost(g: [f64; 3], h: [f64; 2], ff: f64, [a, b]: [f64; 2]) -> f64 {
+    0.5 * (g[0] * a * a + 2.0 * g[1] * a * b + g[2] * b * b + ff) - (h[0] * a + h[1] * b)
+}
+
 /// Gauss–Newton steps on the linear coefficients at the grid points that are refined.
 pub(super) const LINEAR_STEPS: usize = 3;
 
@@ -898,7 +905,11 @@ pub(super) const GRID_LIMIT: usize = 8192;
 /// parameters of each channel (every lobe's ps, and pd) come from a weighted non-negative
 /// linear least-squares solve ([`nnls`]; weights that linearise the loss at the data); each
 /// point is then scored on the *declared* loss at those values, so a basin ranks by the cost
-/// the fit minimises, not by its linearisation. The grid's local minima (distinct basins) are
+/// the fit minimises, not by its linearisation. (One lobe with one shape parameter and n
+/// free on one channel, Torrance–Sparrow D1–D3 or GGX–Smith: the search visits the grid by
+/// the linearised cost, [`linearised_cost`], and only the points it then refines are scored
+/// on the declared loss, from which the candidates come; on every bundled file the same
+/// minima.) The grid's local minima (distinct basins) are
 /// returned best first, at most [`CANDIDATES`] and none scored above [`FAR_BASIN`] times the
 /// best, as solver variables. The grid is scored on a subsample of `full`'s rows
 /// ([`INIT_ROWS`] per channel; `full` may itself be the local stage's subsample, whose
@@ -989,6 +1000,12 @@ pub(super) fn global_init(
             .flatten()
     });
     let (ones, zeros) = (vec![1.0; p.rows.len()], vec![0.0; p.rows.len()]);
+    // One lobe on one channel with one shape parameter and n free (Torrance–Sparrow D1–D3,
+    // GGX–Smith): the grid is searched (coarse to fine) by the linearised cost (below). Not
+    // ABC, whose two shape parameters leave flat valleys where the two searches end at
+    // different points (acryl_blue, 540–570 nm: up to 5e-6 of the cost higher).
+    let linearised = separable.is_some()
+        && !(kind == ModelKind::TorranceSparrow && opts.dist == Distribution::Abc);
     let score_point = |index: usize, steps: usize| {
         let pt = points.get(index);
         // Natural values of all free variables at this grid point (linear ones solved).
@@ -1041,7 +1058,7 @@ pub(super) fn global_init(
                     // Here the basis is its first factor (the second is ones).
                     None => basis_sums(basis.a, &wdata[rows.clone()], &wf[rows.clone()]),
                 };
-                let [w1, f1, _] = free_sums[c];
+                let [w1, f1, ff] = free_sums[c];
                 let (start, free2) = if ips.is_empty() {
                     ([0.0, held[0]], [false, free[0]])
                 } else {
@@ -1066,7 +1083,18 @@ pub(super) fn global_init(
                     }
                     Loss::Linear | Loss::Pixel => pass(x).0,
                 };
-                let (cost, x) = refine_linear(&x0, &free2, opts.loss, steps, pass, cost);
+                let (cost, x) = if steps == 0 && linearised {
+                    // The search's score: the linearised cost ½ Σ w (s·x − f)² at the linear
+                    // solve's (ps, pd), from the grid's sums with no pass over the rows; only
+                    // the points then refined are scored on the declared loss (the linear
+                    // loss: the same cost). The weights linearise the declared loss at the
+                    // data, so its basins lie low in the linearised cost (as for two lobes,
+                    // [`two_lobe_prescreen`]).
+                    let q = linearised_cost([ss, s1, w1], [sf, f1], ff, [x0[0], x0[1]]);
+                    (q, x0)
+                } else {
+                    refine_linear(&x0, &free2, opts.loss, steps, pass, cost)
+                };
                 let x = if ips.is_empty() { vec![x[1]] } else { x };
                 (cost, x)
             } else {
@@ -1172,8 +1200,9 @@ pub(super) fn global_init(
         .filter(|_| mirror.is_some())
         .map(|t| two_lobe_prescreen(t, &p.layout[0], &ips, ipd, &dims, ordered));
     let admissible = |i: usize| ordered(i) && kept.as_ref().is_none_or(|kept| kept[i]);
-    // The points the search asks for, scored at the linear solve's (ps, pd) (an upper bound
-    // of its best score), then the promising ones with (ps, pd) minimising the declared loss.
+    // The points the search asks for, scored at the linear solve's (ps, pd) (on the declared
+    // loss, an upper bound of its best score; or the linearised cost, `linearised`), then the
+    // promising ones with (ps, pd) minimising the declared loss.
     use rayon::prelude::*;
     let mut scored: Vec<(f64, Vec<f64>)> = vec![(f64::INFINITY, Vec::new()); points.len()];
     // Two lobes: the whole (half) grid, as a lobe a coarse step narrower than its neighbours
@@ -1217,6 +1246,12 @@ pub(super) fn global_init(
         .par_iter()
         .map(|&i| (i, score_point(i, LINEAR_STEPS)))
         .collect();
+    // Searched by the linearised cost: only the refined points carry the declared loss.
+    if linearised {
+        for s in &mut scored {
+            s.0 = f64::INFINITY;
+        }
+    }
     for (i, s) in better {
         if s.0 <= scored[i].0 {
             scored[i] = s;
@@ -1663,6 +1698,35 @@ mod tests {
                     "m={m} k={k}: {got:?} vs {want:?}"
                 );
             }
+        }
+    }
+
+    /// The linearised cost from the sums ([`linearised_cost`], the score of the one-lobe grid
+    /// search) equals ½ Σ w (a·s + b − f)² summed row by row, at the linear solve's (a, b)
+    /// and away from it (where the cross term and the constant matter).
+    #[test]
+    fn linearised_cost_matches_a_row_sum() {
+        let m = 777;
+        let s: Vec<f64> = (0..m)
+            .map(|i| (0.37 * i as f64).sin().abs() * 3.0)
+            .collect();
+        let fd: Vec<f64> = (0..m)
+            .map(|i| 0.1 + (0.11 * i as f64).cos().powi(2))
+            .collect();
+        let w: Vec<f64> = (0..m).map(|i| 1.0 / (1.0 + i as f64 % 5.0)).collect();
+        let wf: Vec<f64> = w.iter().zip(&fd).map(|(w, f)| w * f).collect();
+        let [ss, s1, sf] = basis_sums(&s, &w, &wf);
+        let [w1, f1, ff] = basis_free_sums(&w, &fd);
+        let solved = linear_solve(&[ss, s1, s1, w1], &[sf, f1], &[0.0, 0.0], &[true, true]);
+        for x in [[solved[0], solved[1]], [0.7, 0.05], [0.0, 0.4], [2.5, -0.3]] {
+            let want: f64 = (0..m)
+                .map(|i| 0.5 * w[i] * (x[0] * s[i] + x[1] - fd[i]).powi(2))
+                .sum();
+            let got = linearised_cost([ss, s1, w1], [sf, f1], ff, x);
+            assert!(
+                (got - want).abs() <= 1e-11 * want.max(1e-3),
+                "x = {x:?}: {got} against {want}"
+            );
         }
     }
 
