@@ -707,8 +707,9 @@ fn fix_and_start_errors_name_the_command_line() {
 }
 
 /// `-o DIR` naming an existing folder, for a command that writes files named by -o (a scene's
-/// render, a plot): refused with the fix, where it used to write DIR.png and DIR.exr beside the
-/// folder; nothing is written; the fix followed writes inside the folder.
+/// render, a plot, `inverse`): refused with the fix, where it used to write DIR.png and
+/// DIR.exr (DIR.svg, DIR.csv, …) beside the folder; nothing is written; the fix followed
+/// writes inside the folder.
 #[test]
 fn an_existing_folder_as_a_file_output_is_refused() {
     let dir = tempfile::tempdir().unwrap();
@@ -762,7 +763,10 @@ fn an_existing_folder_as_a_file_output_is_refused() {
         &args.iter().map(String::as_str).collect::<Vec<_>>(),
         &["is a folder", "writes svg and png files"],
     );
-    assert!(!out.with_extension("svg").exists(), "{err}");
+    for ext in ["svg", "png"] {
+        assert!(!out.with_extension(ext).exists(), "{err}");
+    }
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 2, "{err}");
     let fixed = word_after(&err, "e.g. -o ").to_string();
     assert_eq!(Path::new(&fixed).parent(), Some(out.as_path()), "{err}");
     let args = lobe(&fixed);
@@ -796,4 +800,18 @@ fn an_existing_folder_as_a_file_output_is_refused() {
         .map(String::as_str)
         .collect::<Vec<_>>());
     assert!(Path::new(&fixed).with_extension("csv").is_file());
+    // A foreign extension: the three files it would write, listed.
+    let jpg = d.join("x.jpg");
+    let x = |e: &str| d.join(format!("x.{e}")).display().to_string();
+    let want = format!("it writes {}, {} and {}", x("csv"), x("svg"), x("png"));
+    fails(
+        &inverse(jpg.to_str().unwrap())
+            .iter()
+            .map(String::as_str)
+            .collect::<Vec<_>>(),
+        &[
+            "this command writes csv, svg and png files, not .jpg",
+            &want,
+        ],
+    );
 }
