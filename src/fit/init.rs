@@ -1668,18 +1668,25 @@ pub(super) fn search_grid(
 mod tests {
     use super::*;
 
+    /// `m` rows of a basis s (0 to 3), data f (0.1 to 1.1) and weights w (1 to 1/5), smooth
+    /// and deterministic, for the sums' tests.
+    fn test_rows(m: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let s = (0..m)
+            .map(|i| (0.37 * i as f64).sin().abs() * 3.0)
+            .collect();
+        let fd = (0..m)
+            .map(|i| 0.1 + (0.11 * i as f64).cos().powi(2))
+            .collect();
+        let w = (0..m).map(|i| 1.0 / (1.0 + i as f64 % 5.0)).collect();
+        (s, fd, w)
+    }
+
     /// The lane sums of the global initialisation equal plain sums written out here, for
     /// lengths with and without a partial last block.
     #[test]
     fn basis_sums_match_plain_sums() {
         for m in [0, 1, 7, 8, 9, 500, 1003] {
-            let s: Vec<f64> = (0..m)
-                .map(|i| (0.37 * i as f64).sin().abs() * 3.0)
-                .collect();
-            let fd: Vec<f64> = (0..m)
-                .map(|i| 0.1 + (0.11 * i as f64).cos().powi(2))
-                .collect();
-            let w: Vec<f64> = (0..m).map(|i| 1.0 / (1.0 + i as f64 % 5.0)).collect();
+            let (s, fd, w) = test_rows(m);
             let mut want = [0.0; 6];
             for i in 0..m {
                 let t = [s[i] * s[i], s[i], fd[i] * s[i], 1.0, fd[i], fd[i] * fd[i]];
@@ -1707,13 +1714,7 @@ mod tests {
     #[test]
     fn linearised_cost_matches_a_row_sum() {
         let m = 777;
-        let s: Vec<f64> = (0..m)
-            .map(|i| (0.37 * i as f64).sin().abs() * 3.0)
-            .collect();
-        let fd: Vec<f64> = (0..m)
-            .map(|i| 0.1 + (0.11 * i as f64).cos().powi(2))
-            .collect();
-        let w: Vec<f64> = (0..m).map(|i| 1.0 / (1.0 + i as f64 % 5.0)).collect();
+        let (s, fd, w) = test_rows(m);
         let wf: Vec<f64> = w.iter().zip(&fd).map(|(w, f)| w * f).collect();
         let [ss, s1, sf] = basis_sums(&s, &w, &wf);
         let [w1, f1, ff] = basis_free_sums(&w, &fd);
