@@ -773,49 +773,63 @@ pub(super) fn gram_sums(s: &[Basis], w: &[f64], wf: &[f64]) -> (Vec<f64>, Vec<f6
 pub(super) fn linear_solve(g: &[f64], h: &[f64], c: &[f64], free: &[bool]) -> Vec<f64> {
     let k = c.len();
     // y = f − Σ_held c_j s_j: the right-hand side loses the held columns.
-    let h: Vec<f64> = (0..k)
-        .map(|i| {
-            h[i] - (0..k)
+    let mut y = [0.0; LINEAR_MAX];
+    for (i, yi) in y[..k].iter_mut().enumerate() {
+        *yi = h[i]
+            - (0..k)
                 .filter(|&j| !free[j])
                 .map(|j| g[i * k + j] * c[j])
-                .sum::<f64>()
-        })
-        .collect();
-    let x = nnls(g, &h, free);
+                .sum::<f64>();
+    }
+    let x = nnls(g, &y[..k], free);
     (0..k).map(|i| if free[i] { x[i] } else { c[i] }).collect()
 }
 
+/// The most unknowns of [`nnls`] and [`linear_solve`]: every linear coefficient is a model
+/// parameter. Their work space is on the stack (the initialisation solves one system per grid
+/// point it visits, hundreds per fit).
+const LINEAR_MAX: usize = crate::model::MAX_PARAMS;
+
 /// Non-negative least squares from the normal equations: minimise ½ xᵀAx − bᵀx over x ≥ 0 (A
-/// k × k row-major, symmetric positive semi-definite), an unknown that is not `free` held at
-/// 0. The active-set method of Lawson & Hanson (1974, "Solving Least Squares Problems",
-/// ch. 23, algorithm NNLS), on the normal equations: unknowns enter the passive set by the
-/// largest gradient and leave it by interpolating back to feasibility. An unknown whose
-/// diagonal is 0 (a basis that vanishes on every row) stays 0.
+/// k × k row-major, symmetric positive semi-definite; k at most [`LINEAR_MAX`]), an unknown
+/// that is not `free` held at 0. The active-set method of Lawson & Hanson (1974, "Solving
+/// Least Squares Problems", ch. 23, algorithm NNLS), on the normal equations: unknowns enter
+/// the passive set by the largest gradient and leave it by interpolating back to
+/// feasibility. An unknown whose diagonal is 0 (a basis that vanishes on every row) stays 0.
 pub(super) fn nnls(a: &[f64], b: &[f64], free: &[bool]) -> Vec<f64> {
     let k = b.len();
-    let mut x = vec![0.0; k];
-    let usable: Vec<bool> = (0..k).map(|i| free[i] && a[i * k + i] > 0.0).collect();
-    let diag: Vec<f64> = (0..k)
-        .map(|i| if usable[i] { a[i * k + i] } else { 1.0 })
-        .collect();
-    let mut passive = vec![false; k];
+    assert!(k <= LINEAR_MAX, "nnls: {k} unknowns, at most {LINEAR_MAX}");
+    let mut x = [0.0; LINEAR_MAX];
+    let mut usable = [false; LINEAR_MAX];
+    let mut diag = [1.0; LINEAR_MAX];
+    for i in 0..k {
+        usable[i] = free[i] && a[i * k + i] > 0.0;
+        if usable[i] {
+            diag[i] = a[i * k + i];
+        }
+    }
+    let mut passive = [false; LINEAR_MAX];
     // The gradient test scale: a tolerance relative to the problem's own size.
     let scale = (0..k)
         .filter(|&i| usable[i])
         .map(|i| b[i].abs() + a[i * k + i].sqrt())
         .fold(0.0, f64::max);
     let tol = 1e-12 * scale.max(1e-300);
+    let mut neg = [0.0; LINEAR_MAX];
+    for (n, v) in neg.iter_mut().zip(b) {
+        *n = -v;
+    }
     // The solution of the equations restricted to the passive set (zero elsewhere).
-    let solve = |passive: &[bool]| {
-        let held: Vec<bool> = passive.iter().map(|p| !p).collect();
-        let neg: Vec<f64> = b.iter().map(|v| -v).collect();
-        lsq::damped_solve(a, &neg, &diag, 0.0, &held)
+    let solve = |passive: &[bool; LINEAR_MAX]| {
+        let held = passive.map(|p| !p);
+        lsq::damped_solve(a, &neg[..k], &diag[..k], 0.0, &held[..k])
     };
     for _ in 0..3 * k + 1 {
         // w = b − A x: the descent direction of each unknown.
-        let w: Vec<f64> = (0..k)
-            .map(|i| b[i] - (0..k).map(|j| a[i * k + j] * x[j]).sum::<f64>())
-            .collect();
+        let mut w = [0.0; LINEAR_MAX];
+        for (i, wi) in w[..k].iter_mut().enumerate() {
+            *wi = b[i] - (0..k).map(|j| a[i * k + j] * x[j]).sum::<f64>();
+        }
         let Some(j) = (0..k)
             .filter(|&i| usable[i] && !passive[i] && w[i] > tol)
             .max_by(|&p, &q| w[p].total_cmp(&w[q]))
@@ -829,7 +843,7 @@ pub(super) fn nnls(a: &[f64], b: &[f64], free: &[bool]) -> Vec<f64> {
                 break;
             };
             if (0..k).all(|i| !passive[i] || z[i] > 0.0) {
-                x = z;
+                x[..k].copy_from_slice(&z);
                 progressed = true;
                 break;
             }
@@ -847,11 +861,10 @@ pub(super) fn nnls(a: &[f64], b: &[f64], free: &[bool]) -> Vec<f64> {
             }
         }
         if !progressed {
-            passive[j] = false;
             break;
         }
     }
-    x.iter().map(|v| v.max(0.0)).collect()
+    x[..k].iter().map(|v| v.max(0.0)).collect()
 }
 
 /// The linearised cost ½ Σ w (a·s + b − f)² of one lobe's basis s with coefficients

@@ -384,11 +384,24 @@ pub(crate) fn damped_solve(
     active: &[bool],
 ) -> Option<Vec<f64>> {
     let n = g.len();
+    // The work space: L (n × n), then h and s; on the stack for a few parameters (the
+    // initialisation solves thousands of 2 × 2 systems), else on the heap.
+    let mut small = [0.0; SMALL * SMALL + 2 * SMALL];
+    let mut large = Vec::new();
+    let work: &mut [f64] = if n <= SMALL {
+        &mut small[..n * n + 2 * n]
+    } else {
+        large.resize(n * n + 2 * n, 0.0);
+        &mut large
+    };
+    let (l, hs) = work.split_at_mut(n * n);
+    let (h, s) = hs.split_at_mut(n);
     // Scale by s_i = 1/√d_i so the scaled matrix has a unit-ish diagonal: better conditioned.
-    let mut h: Vec<f64> = d.iter().map(|v| 1.0 / v.sqrt()).collect();
-    let s = h.clone();
+    for ((hi, si), v) in h.iter_mut().zip(s.iter_mut()).zip(d) {
+        *hi = 1.0 / v.sqrt();
+        *si = *hi;
+    }
     // The scaled, damped matrix, then its factor L in place (lower triangle, row-major).
-    let mut l = vec![0.0; n * n];
     for i in 0..n {
         for j in 0..=i {
             let mut v = if active[i] || active[j] {
@@ -427,11 +440,15 @@ pub(crate) fn damped_solve(
         }
         h[i] = v / l[i * n + i];
     }
-    for (v, si) in h.iter_mut().zip(&s) {
+    for (v, si) in h.iter_mut().zip(&*s) {
         *v *= si;
     }
-    h.iter().all(|v| v.is_finite()).then_some(h)
+    h.iter().all(|v| v.is_finite()).then(|| h.to_vec())
 }
+
+/// Systems of at most this many unknowns are solved by [`damped_solve`] without a heap work
+/// space.
+const SMALL: usize = crate::model::MAX_PARAMS;
 
 /// Where `x` sits on its box: −1 at the lower bound, +1 at the upper, 0 inside.
 pub fn bound_side(x: f64, (lo, hi): (f64, f64)) -> i8 {
