@@ -50,20 +50,25 @@ pub const ALBEDO_THETA_I_DEG: [f64; 10] =
 /// The first panel's width for light at `theta_i`: the largest step 1e-5·3^k (within
 /// [`FIRST_PANEL`]) over which f_r, probed from the mirror direction towards the normal in the
 /// plane of incidence, stays within 10 % of its mirror value: the lobe is flat on that panel,
-/// whatever the model (a broad lobe needs far fewer panels than a mirror-sharp one).
-fn first_panel(model: &Model, theta_i: f64) -> f64 {
+/// whatever the model (a broad lobe needs far fewer panels than a mirror-sharp one). Returns
+/// (k, the width).
+fn first_panel(model: &Model, theta_i: f64) -> (usize, f64) {
     let f = |d: f64| model.brdf(&Geometry::from_angles(theta_i, 0.0, theta_i - d, PI));
     let peak = f(0.0);
-    let mut h = FIRST_PANEL.0;
+    let (mut k, mut h) = (0, FIRST_PANEL.0);
     while h * GROWTH <= FIRST_PANEL.1 {
         let v = f(h * GROWTH);
         if !((v - peak).abs() <= 0.1 * peak.abs()) {
             break;
         }
         h *= GROWTH;
+        k += 1;
     }
-    h
+    (k, h)
 }
+
+/// How many widths [`first_panel`] can return: 1e-5·3^k for k = 0 to 7.
+const FIRST_PANELS: usize = 8;
 
 /// Panel ends on [lo, hi] growing geometrically (×[`GROWTH`] from `first`) away from `centre`.
 fn graded(lo: f64, hi: f64, centre: f64, first: f64) -> Vec<f64> {
@@ -104,27 +109,74 @@ fn nodes(ends: &[f64], rule: &[(f64, f64)]) -> Vec<(f64, f64)> {
 
 /// Directional albedo ρ(θi) = ∫ f_r cosθo dω_o of `model` for light at `theta_i` (radians).
 pub fn directional_albedo(model: &Model, theta_i: f64) -> f64 {
-    albedo_by(model, theta_i, &GL6)
+    let (_, first) = first_panel(model, theta_i);
+    Nodes::new(theta_i, first, &GL6).albedo(model)
 }
 
-/// [`directional_albedo`] with `rule` on each panel instead of 6-point Gauss–Legendre.
-fn albedo_by(model: &Model, theta_i: f64, rule: &[(f64, f64)]) -> f64 {
-    let first = first_panel(model, theta_i);
-    let theta = nodes(&graded(0.0, FRAC_PI_2, theta_i, first), rule);
-    let phi = nodes(&graded(0.0, PI, PI, first), rule);
-    let cos_phi: Vec<(f64, f64)> = phi.iter().map(|&(p, w)| (p.cos(), w)).collect();
-    let (si, ci) = theta_i.sin_cos();
-    let mut sum = 0.0;
-    for &(to, wt) in &theta {
-        let (so, co) = to.sin_cos();
-        let mut ring = 0.0;
-        for &(cp, wp) in &cos_phi {
+/// The nodes of the quadrature at one θi, parameter-free: the geometry of every node (θo
+/// the outer, φo the inner index) and the weights of each axis (the θo weight times
+/// cosθo sinθo; the φo weight).
+struct Nodes {
+    geometry: Vec<Geometry>,
+    outer: Vec<f64>,
+    inner: Vec<f64>,
+}
+
+impl Nodes {
+    /// The nodes of `rule` on the panels for light at `theta_i` whose first panel is `first`
+    /// wide.
+    fn new(theta_i: f64, first: f64, rule: &[(f64, f64)]) -> Self {
+        let theta = nodes(&graded(0.0, FRAC_PI_2, theta_i, first), rule);
+        let phi = nodes(&graded(0.0, PI, PI, first), rule);
+        let cos_phi: Vec<f64> = phi.iter().map(|&(p, _)| p.cos()).collect();
+        let (si, ci) = theta_i.sin_cos();
+        let mut geometry = Vec::with_capacity(theta.len() * phi.len());
+        let mut outer = Vec::with_capacity(theta.len());
+        for &(to, wt) in &theta {
+            let (so, co) = to.sin_cos();
             // L·E = sinθi sinθo cos φo + cosθi cosθo, as in `Geometry::from_angles`.
-            ring += wp * model.brdf(&Geometry::from_cosines(ci, co, si * so * cp + ci * co));
+            geometry.extend(
+                cos_phi
+                    .iter()
+                    .map(|&cp| Geometry::from_cosines(ci, co, si * so * cp + ci * co)),
+            );
+            outer.push(wt * co * so);
         }
-        sum += wt * co * so * ring;
+        let inner = phi.iter().map(|&(_, w)| w).collect();
+        Nodes {
+            geometry,
+            outer,
+            inner,
+        }
     }
-    2.0 * sum
+
+    /// ρ of `model` by these nodes (doubled: every model is symmetric about the plane of
+    /// incidence).
+    fn albedo(&self, model: &Model) -> f64 {
+        let mut sum = 0.0;
+        for (ring, w) in self
+            .geometry
+            .chunks_exact(self.inner.len())
+            .zip(&self.outer)
+        {
+            let mut r = 0.0;
+            for (g, wp) in ring.iter().zip(&self.inner) {
+                r += wp * model.brdf(g);
+            }
+            sum += w * r;
+        }
+        2.0 * sum
+    }
+}
+
+/// The coarse rule's nodes for the θi of [`ALBEDO_THETA_I_DEG`] at index `t` and the first
+/// panel 1e-5·3^`k` wide (of width `first`), made on first use and kept: the nodes do not
+/// depend on the model, and the physical check of every fit screens with them.
+fn coarse_nodes(t: usize, k: usize, first: f64) -> &'static Nodes {
+    use std::sync::OnceLock;
+    static CACHE: [[OnceLock<Nodes>; FIRST_PANELS]; ALBEDO_THETA_I_DEG.len()] =
+        [const { [const { OnceLock::new() }; FIRST_PANELS] }; ALBEDO_THETA_I_DEG.len()];
+    CACHE[t][k].get_or_init(|| Nodes::new(ALBEDO_THETA_I_DEG[t].to_radians(), first, &GL3))
 }
 
 /// The directional albedo at each θi of [`ALBEDO_THETA_I_DEG`]: (θi in degrees, ρ), in that
@@ -143,9 +195,13 @@ pub fn albedos(model: &Model) -> Vec<(f64, f64)> {
 /// screen that spares the fine quadrature where the answer is clearly below a threshold.
 pub fn coarse_albedos(model: &Model) -> Vec<(f64, f64)> {
     use rayon::prelude::*;
-    ALBEDO_THETA_I_DEG
-        .par_iter()
-        .map(|&t| (t, albedo_by(model, t.to_radians(), &GL3)))
+    (0..ALBEDO_THETA_I_DEG.len())
+        .into_par_iter()
+        .map(|t| {
+            let theta_i = ALBEDO_THETA_I_DEG[t];
+            let (k, first) = first_panel(model, theta_i.to_radians());
+            (theta_i, coarse_nodes(t, k, first).albedo(model))
+        })
         .collect()
 }
 
@@ -160,4 +216,43 @@ pub fn max_albedo(model: &Model) -> (f64, f64) {
                 best
             }
         })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{Distribution, ModelKind};
+
+    /// The coarse rule's kept nodes give, to the bit, what nodes made afresh for the model's
+    /// own first panel give, over models whose first panels span every width from the
+    /// sharpest (1e-5) to the widest (0.0219), in any order of use; and the k the cache is
+    /// keyed by names that width (1e-5·3^k).
+    #[test]
+    fn kept_coarse_nodes_match_fresh_ones() {
+        let mut models = Vec::new();
+        for j in 0..24 {
+            let c = 3f64.powi(j);
+            models.push(Model::new(ModelKind::Phong, Distribution::D3, &[c, 0.4, 0.2]).unwrap());
+        }
+        for a in [0.5, 0.1, 0.02, 3e-3, 1e-3, 1e-4] {
+            let p = [a, 1.5, 0.5, 0.1];
+            models.push(Model::new(ModelKind::GgxSmith, Distribution::D3, &p).unwrap());
+        }
+        let mut widths = std::collections::BTreeSet::new();
+        // Broad to sharp, then sharp to broad: the second pass reads nodes the first kept.
+        for m in models.iter().chain(models.iter().rev()) {
+            for (t, (theta_i, rho)) in coarse_albedos(m).into_iter().enumerate() {
+                let (k, first) = first_panel(m, theta_i.to_radians());
+                let want = FIRST_PANEL.0 * GROWTH.powi(k as i32);
+                assert!(
+                    (first - want).abs() <= 1e-12 * want,
+                    "k {k}: {first} against {want}"
+                );
+                widths.insert(k);
+                let fresh = Nodes::new(theta_i.to_radians(), first, &GL3).albedo(m);
+                assert_eq!(rho.to_bits(), fresh.to_bits(), "{m:?} at θi index {t}");
+            }
+        }
+        assert_eq!(widths.len(), FIRST_PANELS, "widths used: {widths:?}");
+    }
 }
