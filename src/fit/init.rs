@@ -769,9 +769,13 @@ pub(super) fn gram_sums(s: &[Basis], w: &[f64], wf: &[f64]) -> (Vec<f64>, Vec<f6
 
 /// The linear coefficients that minimise ½ cᵀGc − hᵀc (the weighted linear least squares of
 /// [`gram_sums`]) with the held coefficients (`free` false) at their values in `c` and the
-/// free ones ≥ 0 ([`nnls`]).
+/// free ones ≥ 0 ([`nnls`]); at most [`LINEAR_MAX`] coefficients.
 pub(super) fn linear_solve(g: &[f64], h: &[f64], c: &[f64], free: &[bool]) -> Vec<f64> {
     let k = c.len();
+    assert!(
+        k <= LINEAR_MAX,
+        "linear_solve: {k} unknowns, at most {LINEAR_MAX}"
+    );
     // y = f − Σ_held c_j s_j: the right-hand side loses the held columns.
     let mut y = [0.0; LINEAR_MAX];
     for (i, yi) in y[..k].iter_mut().enumerate() {
