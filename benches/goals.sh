@@ -1,0 +1,168 @@
+#!/usr/bin/env bash
+# Issue 25's speed goals, every one measured in one run, for one binary or several side by side
+# (say, this checkout's build and a saved build of the round before), the binaries alternating
+# round by round so that both see the same minutes of a noisy machine:
+#
+#   scipy 10k, 1M   benches/compare_scipy.sh (TS-d3, default pipeline, REPEAT fits in process,
+#                   the shared peer scipy_fit.py as reference): total and solve ratios
+#   models          `fit data/merl-alumina-oxide.csv --channel g --model M --repeat 31` for
+#                   every model: its `seconds` (the median in process) over TS-d3's, same round
+#   model all       `fit data/merl-alumina-oxide.csv --channel g --model all --repeat 5`: the
+#                   wall of the nine fits in process, the median of 5 (as `fit` prints it)
+#   choose          `choose FILE --scene fig7` on every bundled file, wall
+#   report          `report` on data/ (REPORT=1 only: 30-40 s a binary a round) on a
+#                   pseudo-terminal, as a user sees it: the wall, and the longest time in
+#                   which nothing moved on (no line printed, the bar's percentage and message
+#                   unchanged; its clock and estimate ticking do not count)
+#
+#   PYTHON=/tmp/peers/bin/python [ROUNDS=3] [REPEAT=11] [REPORT=0|1] [PARTS="scipy models all
+#     choose report"] benches/goals.sh [BIN...] [> LOG]
+#
+# Without BIN the script builds this checkout and measures that. Every measurement is printed
+# as a raw line (`raw BIN PART KEY VALUE`) as it is taken, then the summary: per binary and
+# goal the median over the rounds, the range, and whether the median meets the goal. The scipy
+# peer needs numpy and scipy for PYTHON (python3 -m venv /tmp/peers && /tmp/peers/bin/pip
+# install numpy scipy). Writes nothing in the checkout; its outputs go to a temporary directory.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+PYTHON=${PYTHON:-python3}
+ROUNDS=${ROUNDS:-3}
+REPEAT=${REPEAT:-11}
+REPORT=${REPORT:-0}
+PARTS=${PARTS:-scipy models all choose report}
+if [ $# -eq 0 ]; then
+  cargo build --release -q
+  set -- target/release/brdfit
+fi
+for b in "$@"; do
+  [ -x "$b" ] || { echo "$b is not an executable; fix: give the path of a built brdfit binary" >&2; exit 2; }
+done
+has() { case " $PARTS " in *" $1 "*) return 0 ;; *) return 1 ;; esac; }
+TMP=$(mktemp -d)
+trap 'rm -rf "$TMP"' EXIT
+REAL=data/merl-alumina-oxide.csv
+MODELS=("torrance-sparrow --distribution d3" "lambert" "torrance-sparrow --distribution d1"
+  "torrance-sparrow --distribution d2" "torrance-sparrow --distribution abc" "phong"
+  "blinn-phong" "ggx-smith" "ggx-smith-2")
+# Wall seconds of a command (its output dropped).
+wall() {
+  local s e
+  s=$(date +%s%N)
+  "$@" > /dev/null 2>&1
+  e=$(date +%s%N)
+  awk -v ns=$((e - s)) 'BEGIN { printf "%.4f\n", ns / 1e9 }'
+}
+# A number of a fit JSON file (one fit, or the first of several).
+field() {
+  $PYTHON -c "import json,sys; d=json.load(open(sys.argv[1])); d=d[0] if isinstance(d,list) else d; print(d[sys.argv[2]])" "$1" "$2"
+}
+
+echo "goals.sh: $(date -u '+%F %T') UTC, load average $(cut -d' ' -f1-3 /proc/loadavg), $(nproc) cores"
+for r in $(seq "$ROUNDS"); do
+  for b in "$@"; do
+    if has scipy; then
+      REPEAT=$REPEAT MODELS=ts-d3 REAL= BRDFIT=$b PYTHON=$PYTHON benches/compare_scipy.sh 10000 1000000 \
+        > "$TMP/scipy.txt"
+      # "SIZE ts-d3 brdfit default SOLVE STATS GEOMETRY TOTAL OWN COMMON SOLVEx TOTALx ..."
+      awk -v b="$b" '$3 == "brdfit" && $4 == "default" {
+        sub("x", "", $11); sub("x", "", $12);
+        print "raw", b, "scipy", $1 "-total", $12; print "raw", b, "scipy", $1 "-solve", $11;
+        print "raw", b, "scipy", $1 "-seconds", $8 }' "$TMP/scipy.txt"
+    fi
+    if has models; then
+      for m in "${MODELS[@]}"; do
+        # shellcheck disable=SC2086
+        "$b" fit "$REAL" --channel g --model $m --repeat 31 -q --json "$TMP/m.json" > /dev/null
+        echo "raw $b models ${m#torrance-sparrow --distribution } $(field "$TMP/m.json" seconds)"
+      done
+    fi
+    if has all; then
+      # The wall of the nine fits in process, median of 5 ("9 models fitted in 16.4 ms ...").
+      ms=$("$b" fit "$REAL" --channel g --model all --repeat 5 2>&1 | sed -n 's/.* fitted in \([0-9.]*\) ms.*/\1/p')
+      echo "raw $b all seconds $(awk -v ms="$ms" 'BEGIN { printf "%.5f\n", ms / 1e3 }')"
+    fi
+    if has choose; then
+      for f in data/*.csv data/*.astm; do
+        echo "raw $b choose $(basename "$f") $(wall "$b" choose "$f" --scene fig7 -q -o "$TMP/choose")"
+      done
+    fi
+    if has report && [ "$REPORT" = 1 ]; then
+      # On a terminal (a pseudo-terminal here), as a user sees it: the wall, and the longest
+      # time in which nothing on the screen moved on: no line printed, and the bar's percentage
+      # and message (what is running) unchanged (its clock and estimate ticking do not count).
+      $PYTHON - "$b" report -o "$TMP/report" << 'PTY' | sed "s|^|raw $b report |"
+import os, pty, re, select, sys, time
+pid, fd = pty.fork()
+if pid == 0:
+    os.execvp(sys.argv[1], sys.argv[1:])
+start = last = time.monotonic()
+silent, seen, tail = 0.0, None, ""
+bar = re.compile(r"\]\s*(\d+) % · .* left · (.*)$")
+while True:
+    ready, _, _ = select.select([fd], [], [], 0.5)
+    if not ready:
+        continue
+    try:
+        data = os.read(fd, 65536)
+    except OSError:
+        break
+    if not data:
+        break
+    now = time.monotonic()
+    text = tail + re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", data.decode("utf-8", "replace"))
+    *screens, tail = re.split(r"[\r\n]", text)
+    for line in filter(str.strip, screens):
+        m = bar.search(line)
+        key = (m[1], m[2].strip()) if m else line.strip()
+        if key != seen:
+            silent, last, seen = max(silent, now - last), now, key
+_, status = os.waitpid(pid, 0)
+now = time.monotonic()
+if os.waitstatus_to_exitcode(status) != 0:
+    sys.exit(f"{sys.argv[1]} report failed ({status})")
+print(f"seconds {now - start:.2f}")
+print(f"silent {max(silent, now - last):.2f}")
+PTY
+    fi
+  done
+done | tee "$TMP/raw.txt"
+echo "load average: $(cut -d' ' -f1-3 /proc/loadavg)"
+$PYTHON - "$TMP/raw.txt" << 'EOF'
+import statistics as st, sys
+from collections import defaultdict
+v = defaultdict(list)  # (bin, part, key) -> values in round order
+for line in open(sys.argv[1]):
+    w = line.split()
+    if len(w) == 5 and w[0] == "raw":
+        v[(w[1], w[2], w[3])].append(float(w[4]))
+bins = list(dict.fromkeys(k[0] for k in v))
+def med(xs):
+    return st.median(xs), min(xs), max(xs)
+print(f"{'binary':<28} {'goal':<34} {'median':>9} {'range':>19}  met")
+for b in bins:
+    rows = []
+    for size, goal in (("10000", 10.0), ("1000000", 40.0)):
+        for kind in ("total", "solve"):
+            xs = v.get((b, "scipy", f"{size}-{kind}"))
+            if xs:
+                rows.append((f"{size} vs scipy, {kind} (≥ {goal:g}×)", xs, goal, True, "×"))
+    d3 = v.get((b, "models", "d3"))
+    if d3:
+        for (bb, part, key), xs in v.items():
+            if bb == b and part == "models" and key != "d3":
+                ratio = [x / t for x, t in zip(xs, d3)]
+                rows.append((f"{key} / TS-d3 (≤ 3×)", ratio, 3.0, False, "×"))
+        rows.append(("TS-d3 seconds (in process)", d3, None, False, " s"))
+    if v.get((b, "all", "seconds")):
+        rows.append(("--model all (≤ 0.030 s)", v[(b, "all", "seconds")], 0.030, False, " s"))
+    for (bb, part, key), xs in v.items():
+        if bb == b and part == "choose":
+            rows.append((f"choose {key} (≤ 3 s)", xs, 3.0, False, " s"))
+    if v.get((b, "report", "seconds")):
+        rows.append(("report (≤ 60 s)", v[(b, "report", "seconds")], 60.0, False, " s"))
+        rows.append(("report, longest still screen (≤ 5 s)", v[(b, "report", "silent")], 5.0, False, " s"))
+    for name, xs, goal, above, unit in rows:
+        m, lo, hi = med(xs)
+        met = "" if goal is None else ("yes" if (m >= goal if above else m <= goal) else "NO")
+        print(f"{b:<28} {name:<34} {m:>8.4g}{unit} {lo:>8.4g}–{hi:<8.4g}  {met}  (n={len(xs)})")
+EOF
