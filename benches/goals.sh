@@ -10,33 +10,41 @@
 #   model all       `fit data/merl-alumina-oxide.csv --channel g --model all --repeat 5`: the
 #                   wall of the nine fits in process, the median of 5 (as `fit` prints it)
 #   choose          `choose FILE --scene fig7` on every bundled file, wall
-#   report          `report` on data/ (REPORT=1 only: 30-40 s a binary a round) on a
-#                   pseudo-terminal, as a user sees it: the wall, and the longest time in
-#                   which nothing moved on (no line printed, the bar's percentage and message
-#                   unchanged; its clock and estimate ticking do not count)
+#   report          `report` on data/ (30-40 s a binary a round) on a pseudo-terminal of
+#                   160 columns, as a user sees it: the wall, and the longest time in which
+#                   nothing moved on: no line printed, the bar's percentage and message
+#                   unchanged (its clock and estimate ticking do not count; a fit's message
+#                   counts its evaluations, so a running fit moves it)
 #
-#   PYTHON=/tmp/peers/bin/python [ROUNDS=3] [REPEAT=11] [REPORT=0|1] [PARTS="scipy models all
-#     choose report"] benches/goals.sh [BIN...] [> LOG]
+#   PYTHON=/tmp/peers/bin/python [ROUNDS=3] [REPEAT=11] [PARTS="scipy models all choose
+#     report"] benches/goals.sh [BIN...] [> LOG]
 #
 # Without BIN the script builds this checkout and measures that. Every measurement is printed
-# as a raw line (`raw BIN PART KEY VALUE`) as it is taken, then the summary: per binary and
-# goal the median over the rounds, the range, and whether the median meets the goal. The scipy
-# peer needs numpy and scipy for PYTHON (python3 -m venv /tmp/peers && /tmp/peers/bin/pip
-# install numpy scipy). Writes nothing in the checkout; its outputs go to a temporary directory.
+# as a raw line (`raw BIN PART KEY VALUE`) as it is taken (compare_scipy.sh's tables as
+# comments, `# ...`), then the summary: per binary and goal the median over the rounds, the
+# range, and whether the median meets the goal (the ratios against scipy as compare_scipy.sh
+# prints them, to 0.1). Any command that fails stops the run with its message. The scipy peer
+# needs numpy and scipy for PYTHON (python3 -m venv /tmp/peers && /tmp/peers/bin/pip install
+# numpy scipy). Writes nothing in the checkout; its outputs go to a temporary directory.
 set -euo pipefail
+# The binaries as absolute paths (given relative to where the script was run).
+bins=()
+for b in "$@"; do
+  [ -x "$b" ] || { echo "$b is not an executable; fix: give the path of a built brdfit binary" >&2; exit 2; }
+  bins+=("$(realpath "$b")")
+done
 cd "$(dirname "$0")/.."
 PYTHON=${PYTHON:-python3}
 ROUNDS=${ROUNDS:-3}
 REPEAT=${REPEAT:-11}
-REPORT=${REPORT:-0}
 PARTS=${PARTS:-scipy models all choose report}
-if [ $# -eq 0 ]; then
+if [ ${#bins[@]} -eq 0 ]; then
   cargo build --release -q
-  set -- target/release/brdfit
+  bins=("$PWD/target/release/brdfit")
 fi
-for b in "$@"; do
-  [ -x "$b" ] || { echo "$b is not an executable; fix: give the path of a built brdfit binary" >&2; exit 2; }
-done
+if [ ! -f "${PEER:-../shared/peers/scipy_fit.py}" ]; then
+  echo "warning: no shared peer (${PEER:-../shared/peers/scipy_fit.py}): the scipy ratios are against benches/scipy_models.py" >&2
+fi
 has() { case " $PARTS " in *" $1 "*) return 0 ;; *) return 1 ;; esac; }
 TMP=$(mktemp -d)
 trap 'rm -rf "$TMP"' EXIT
@@ -44,11 +52,12 @@ REAL=data/merl-alumina-oxide.csv
 MODELS=("torrance-sparrow --distribution d3" "lambert" "torrance-sparrow --distribution d1"
   "torrance-sparrow --distribution d2" "torrance-sparrow --distribution abc" "phong"
   "blinn-phong" "ggx-smith" "ggx-smith-2")
-# Wall seconds of a command (its output dropped).
+# Wall seconds of a command (its output dropped; its errors shown, and the run stopped, if it
+# fails).
 wall() {
   local s e
   s=$(date +%s%N)
-  "$@" > /dev/null 2>&1
+  "$@" > /dev/null 2> "$TMP/err" || { cat "$TMP/err" >&2; return 1; }
   e=$(date +%s%N)
   awk -v ns=$((e - s)) 'BEGIN { printf "%.4f\n", ns / 1e9 }'
 }
@@ -58,11 +67,12 @@ field() {
 }
 
 echo "goals.sh: $(date -u '+%F %T') UTC, load average $(cut -d' ' -f1-3 /proc/loadavg), $(nproc) cores"
-for r in $(seq "$ROUNDS"); do
-  for b in "$@"; do
+for _ in $(seq "$ROUNDS"); do
+  for b in "${bins[@]}"; do
     if has scipy; then
-      REPEAT=$REPEAT MODELS=ts-d3 REAL= BRDFIT=$b PYTHON=$PYTHON benches/compare_scipy.sh 10000 1000000 \
+      REPEAT=$REPEAT MODELS=ts-d3 REAL='' BRDFIT=$b PYTHON=$PYTHON benches/compare_scipy.sh 10000 1000000 \
         > "$TMP/scipy.txt"
+      sed 's/^/# /' "$TMP/scipy.txt"
       # "SIZE ts-d3 brdfit default SOLVE STATS GEOMETRY TOTAL OWN COMMON SOLVEx TOTALx ..."
       awk -v b="$b" '$3 == "brdfit" && $4 == "default" {
         sub("x", "", $11); sub("x", "", $12);
@@ -73,33 +83,42 @@ for r in $(seq "$ROUNDS"); do
       for m in "${MODELS[@]}"; do
         # shellcheck disable=SC2086
         "$b" fit "$REAL" --channel g --model $m --repeat 31 -q --json "$TMP/m.json" > /dev/null
-        echo "raw $b models ${m#torrance-sparrow --distribution } $(field "$TMP/m.json" seconds)"
+        t=$(field "$TMP/m.json" seconds)
+        echo "raw $b models ${m#torrance-sparrow --distribution } $t"
       done
     fi
     if has all; then
       # The wall of the nine fits in process, median of 5 ("9 models fitted in 16.4 ms ...").
-      ms=$("$b" fit "$REAL" --channel g --model all --repeat 5 2>&1 | sed -n 's/.* fitted in \([0-9.]*\) ms.*/\1/p')
+      out=$("$b" fit "$REAL" --channel g --model all --repeat 5 2>&1) || { echo "$out" >&2; exit 1; }
+      ms=$(echo "$out" | sed -n 's/.* fitted in \([0-9.]*\) ms.*/\1/p')
+      [ -n "$ms" ] || { echo "no 'fitted in ... ms' line from $b fit --model all:" >&2; echo "$out" >&2; exit 1; }
       echo "raw $b all seconds $(awk -v ms="$ms" 'BEGIN { printf "%.5f\n", ms / 1e3 }')"
     fi
     if has choose; then
       for f in data/*.csv data/*.astm; do
-        echo "raw $b choose $(basename "$f") $(wall "$b" choose "$f" --scene fig7 -q -o "$TMP/choose")"
+        t=$(wall "$b" choose "$f" --scene fig7 -q -o "$TMP/choose")
+        echo "raw $b choose $(basename "$f") $t"
       done
     fi
-    if has report && [ "$REPORT" = 1 ]; then
+    if has report; then
       # On a terminal (a pseudo-terminal here), as a user sees it: the wall, and the longest
       # time in which nothing on the screen moved on: no line printed, and the bar's percentage
       # and message (what is running) unchanged (its clock and estimate ticking do not count).
       $PYTHON - "$b" report -o "$TMP/report" << 'PTY' | sed "s|^|raw $b report |"
-import os, pty, re, select, sys, time
+import codecs, fcntl, os, pty, re, select, signal, struct, sys, termios, time
 pid, fd = pty.fork()
 if pid == 0:
     os.execvp(sys.argv[1], sys.argv[1:])
+fcntl.ioctl(fd, termios.TIOCSWINSZ, struct.pack("HHHH", 50, 160, 0, 0))
 start = last = time.monotonic()
 silent, seen, tail = 0.0, None, ""
+decode = codecs.getincrementaldecoder("utf-8")("replace").decode
 bar = re.compile(r"\]\s*(\d+) % · .* left · (.*)$")
 while True:
     ready, _, _ = select.select([fd], [], [], 0.5)
+    if time.monotonic() - start > 900:
+        os.kill(pid, signal.SIGTERM)
+        sys.exit(f"{sys.argv[1]} report took over 900 s: stopped")
     if not ready:
         continue
     try:
@@ -109,8 +128,9 @@ while True:
     if not data:
         break
     now = time.monotonic()
-    text = tail + re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", data.decode("utf-8", "replace"))
+    text = tail + decode(data)
     *screens, tail = re.split(r"[\r\n]", text)
+    screens = [re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", x) for x in screens]
     for line in filter(str.strip, screens):
         m = bar.search(line)
         key = (m[1], m[2].strip()) if m else line.strip()
@@ -133,12 +153,15 @@ from collections import defaultdict
 v = defaultdict(list)  # (bin, part, key) -> values in round order
 for line in open(sys.argv[1]):
     w = line.split()
-    if len(w) == 5 and w[0] == "raw":
+    if w and w[0] == "raw":
+        if len(w) != 5:
+            print(f"warning: a raw line not of 5 fields, left out: {line.strip()}", file=sys.stderr)
+            continue
         v[(w[1], w[2], w[3])].append(float(w[4]))
 bins = list(dict.fromkeys(k[0] for k in v))
 def med(xs):
     return st.median(xs), min(xs), max(xs)
-print(f"{'binary':<28} {'goal':<34} {'median':>9} {'range':>19}  met")
+print(f"{'binary':<28} {'goal':<40} {'median':>9} {'range':>19}  met")
 for b in bins:
     rows = []
     for size, goal in (("10000", 10.0), ("1000000", 40.0)):
@@ -146,6 +169,8 @@ for b in bins:
             xs = v.get((b, "scipy", f"{size}-{kind}"))
             if xs:
                 rows.append((f"{size} vs scipy, {kind} (≥ {goal:g}×)", xs, goal, True, "×"))
+        if v.get((b, "scipy", f"{size}-seconds")):
+            rows.append((f"{size}: brdfit total", v[(b, "scipy", f"{size}-seconds")], None, False, " s"))
     d3 = v.get((b, "models", "d3"))
     if d3:
         for (bb, part, key), xs in v.items():
@@ -164,5 +189,5 @@ for b in bins:
     for name, xs, goal, above, unit in rows:
         m, lo, hi = med(xs)
         met = "" if goal is None else ("yes" if (m >= goal if above else m <= goal) else "NO")
-        print(f"{b:<28} {name:<34} {m:>8.4g}{unit} {lo:>8.4g}–{hi:<8.4g}  {met}  (n={len(xs)})")
+        print(f"{b:<28} {name:<40} {m:>8.4g}{unit} {lo:>8.4g}–{hi:<8.4g}  {met}  (n={len(xs)})")
 EOF
