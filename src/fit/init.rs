@@ -340,7 +340,11 @@ fn grid_sums(a: &[f64], b: &[f64], m: usize, w: &[f64], wf: &[f64]) -> Vec<[f64;
             *xf = wfr * v;
         }
         for (bj, b2j) in bp.chunks_exact(mp).zip(b2p.chunks_exact(mp)) {
-            out.push([dot_lanes(&wa2, b2j), dot_lanes(&wa, bj), dot_lanes(&wfa, bj)]);
+            out.push([
+                dot_lanes(&wa2, b2j),
+                dot_lanes(&wa, bj),
+                dot_lanes(&wfa, bj),
+            ]);
         }
     }
     out
