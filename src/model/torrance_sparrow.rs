@@ -310,7 +310,9 @@ impl Distribution {
     }
 
     /// D at cos α = `nh` for the shape parameters `shape` in declared order (one for D1–D3;
-    /// b and c for ABC).
+    /// b and c for ABC). Inlined, so a loop over rows at one shape point (the initialisation's
+    /// tables) sees one distribution's formula.
+    #[inline]
     pub fn eval_shape(self, nh: f64, shape: &[f64]) -> f64 {
         match self {
             Distribution::Abc => {
@@ -328,6 +330,7 @@ impl Distribution {
 
     /// D(α) at cos α = `nh` for shape parameter `c` (for ABC, c is b with the exponent 2; see
     /// [`Distribution::eval_shape`]).
+    #[inline]
     pub fn eval(self, nh: f64, c: f64) -> f64 {
         self.eval_dc(nh, c).0
     }
