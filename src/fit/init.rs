@@ -38,22 +38,32 @@ impl TsFactors {
         let m = rows.len();
         let pi = std::f64::consts::FRAC_1_PI;
         let geo: Vec<f64> = (0..m).map(|r| rows.g_ne[r] * pi / rows.nl[r]).collect();
-        let mut a = Vec::with_capacity(ns.len() * m);
-        for &n in ns {
-            fresnel_times(n, &rows.eh, &geo, &mut a);
-        }
-        let mut b = Vec::with_capacity(cs.len() * m);
-        if dist == Distribution::Abc {
-            // ABC's points (b, c) come in runs of one b: ln(1 + b (1 − N·H)) once per run.
-            for run in cs.chunk_by(|x, y| x[0].to_bits() == y[0].to_bits()) {
-                let c: Vec<f64> = run.iter().map(|pt| pt[1]).collect();
-                problem::abc_shape_rows(run[0][0], &c, &rows.nh, &mut b);
-            }
-        } else {
-            for c in cs {
-                shape_values(dist, c, &rows.nh, &mut b);
-            }
-        }
+        // The two factors' tables beside each other.
+        let (a, b) = rayon::join(
+            || {
+                let mut a = Vec::with_capacity(ns.len() * m);
+                for &n in ns {
+                    fresnel_times(n, &rows.eh, &geo, &mut a);
+                }
+                a
+            },
+            || {
+                let mut b = Vec::with_capacity(cs.len() * m);
+                if dist == Distribution::Abc {
+                    // ABC's points (b, c) come in runs of one b: ln(1 + b (1 − N·H)) once per
+                    // run.
+                    for run in cs.chunk_by(|x, y| x[0].to_bits() == y[0].to_bits()) {
+                        let c: Vec<f64> = run.iter().map(|pt| pt[1]).collect();
+                        problem::abc_shape_rows(run[0][0], &c, &rows.nh, &mut b);
+                    }
+                } else {
+                    for c in cs {
+                        shape_values(dist, c, &rows.nh, &mut b);
+                    }
+                }
+                b
+            },
+        );
         TsFactors { a, b, m }
     }
 
@@ -309,8 +319,8 @@ pub(super) fn basis_sums_body(s: &[f64], w: &[f64], wf: &[f64]) -> [f64; 3] {
 /// with b_j², and of w a_i and wf a_i with b_j, the products in a_i formed once per i. (Three
 /// matrix products, 17 × 408 by 408 × 19 for the default grids on a 10,000-row fit, took
 /// 0.13 ms of its 0.6 ms, most of it in packing and allocation.)
-#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
 fn grid_sums(a: &[f64], b: &[f64], m: usize, w: &[f64], wf: &[f64]) -> Vec<[f64; 3]> {
+    use rayon::prelude::*;
     // Rows padded with zeros to whole blocks of lanes (0·0 adds nothing to a sum).
     let mp = m.next_multiple_of(LANES);
     let nb = b.len() / m;
@@ -325,29 +335,39 @@ fn grid_sums(a: &[f64], b: &[f64], m: usize, w: &[f64], wf: &[f64]) -> Vec<[f64;
             *q = x * x;
         }
     }
+    // The rows of `a` in parallel (each sum is the same on any number of threads).
+    a.par_chunks_exact(m)
+        .flat_map_iter(|ai| grid_sums_row(ai, (&bp, &b2p), w, wf))
+        .collect()
+}
+
+/// [`grid_sums`] for one row `ai` of `a` against every row of `b` and of b² (`bp`, `b2p`,
+/// rows zero-padded to whole blocks of [`LANES`]).
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn grid_sums_row(ai: &[f64], (bp, b2p): (&[f64], &[f64]), w: &[f64], wf: &[f64]) -> Vec<[f64; 3]> {
+    let mp = ai.len().next_multiple_of(LANES);
     let (mut wa, mut wa2, mut wfa) = (vec![0.0; mp], vec![0.0; mp], vec![0.0; mp]);
-    let mut out = Vec::with_capacity(a.len() / m * nb);
-    for ai in a.chunks_exact(m) {
-        for ((((x, x2), xf), (&wr, &wfr)), &v) in wa
-            .iter_mut()
-            .zip(&mut wa2)
-            .zip(&mut wfa)
-            .zip(w.iter().zip(wf))
-            .zip(ai)
-        {
-            *x = wr * v;
-            *x2 = *x * v;
-            *xf = wfr * v;
-        }
-        for (bj, b2j) in bp.chunks_exact(mp).zip(b2p.chunks_exact(mp)) {
-            out.push([
+    for ((((x, x2), xf), (&wr, &wfr)), &v) in wa
+        .iter_mut()
+        .zip(&mut wa2)
+        .zip(&mut wfa)
+        .zip(w.iter().zip(wf))
+        .zip(ai)
+    {
+        *x = wr * v;
+        *x2 = *x * v;
+        *xf = wfr * v;
+    }
+    bp.chunks_exact(mp)
+        .zip(b2p.chunks_exact(mp))
+        .map(|(bj, b2j)| {
+            [
                 dot_lanes(&wa2, b2j),
                 dot_lanes(&wa, bj),
                 dot_lanes(&wfa, bj),
-            ]);
-        }
-    }
-    out
+            ]
+        })
+        .collect()
 }
 
 /// Σ x·y over whole blocks of [`LANES`] (a tail shorter than a block is left out), in

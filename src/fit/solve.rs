@@ -42,35 +42,20 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
     let refine = |x0: &Vec<f64>| lsq::solve(work, x0, opts.method, Robust::None, &refine_limits);
     let start = || start_vector(full, &lay.specs, &lay.names, &opts.start);
     // The grid's subsample is drawn from the local stage's (the same largest values, no
-    // second pass over every row). A start given with the global initialisation is refined
-    // beside it (the other core, when free), its solution set after the grid's candidates'.
-    let (mut candidates, started) = if opts.local_only {
-        (Vec::new(), None)
-    } else if opts.start.is_empty() {
-        (global_init(work, &lay.specs, opts), None)
+    // second pass over every row). A start given with the global initialisation (or the start
+    // of a local fit) is one more candidate, after the grid's, refined beside them: after the
+    // initialisation, not during it, so the initialisation has both cores and the start's
+    // refinement runs beside a candidate's (a 10,000-row fit's start took one core for as long
+    // as the initialisation left the other idle).
+    let mut candidates = if opts.local_only {
+        Vec::new()
     } else {
-        rayon::join(
-            || global_init(work, &lay.specs, opts),
-            || {
-                let x0 = start();
-                let s = refine(&x0);
-                Some((x0, s))
-            },
-        )
+        global_init(work, &lay.specs, opts)
     };
-    let mut sols: Vec<Solution> = candidates.par_iter().map(refine).collect();
-    match started {
-        Some((x0, s)) => {
-            candidates.push(x0);
-            sols.push(s);
-        }
-        None if !opts.start.is_empty() || candidates.is_empty() => {
-            let x0 = start();
-            sols.push(refine(&x0));
-            candidates.push(x0);
-        }
-        None => {}
+    if !opts.start.is_empty() || candidates.is_empty() {
+        candidates.push(start());
     }
+    let mut sols: Vec<Solution> = candidates.par_iter().map(refine).collect();
     let mut iterations: usize = sols.iter().map(|s| s.iterations).sum();
     let mut evaluations: usize = sols.iter().map(|s| s.evaluations).sum();
     sols.sort_by(|a, b| a.cost.total_cmp(&b.cost));
