@@ -189,31 +189,18 @@ pub(super) struct TwoLobeGram {
 
 impl TwoLobeGram {
     fn new(tables: &LobeTables, alphas: &[f64], ns: &[f64], w: &[f64], wf: &[f64]) -> Option<Self> {
-        use nalgebra::{DMatrix, DVector};
         use rayon::prelude::*;
         let (m, na) = (tables.m, alphas.len());
-        let lobes: Vec<&[f64]> = alphas
-            .iter()
-            .map(|&a| tables.lobe(a))
-            .collect::<Option<_>>()?;
-        let lm = DMatrix::from_fn(na, m, |a, r| lobes[a][r]);
-        // Each n's products on their own (in parallel: the same values on any number of
-        // threads).
+        // The lobes, padded with zeros to whole blocks of lanes (0·0 adds nothing to a sum).
+        let mp = m.next_multiple_of(LANES);
+        let mut lobes = vec![0.0; na * mp];
+        for (row, &a) in lobes.chunks_exact_mut(mp).zip(alphas) {
+            row[..m].copy_from_slice(tables.lobe(a)?);
+        }
+        // Each n's sums on their own (in parallel: the same values on any number of threads).
         let per_n: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> = ns
             .par_iter()
-            .map(|&n| {
-                let f = tables.fresnel(n)?;
-                let lu = DMatrix::from_fn(na, m, |a, r| lm[(a, r)] * w[r] * f[r] * f[r]);
-                let g = lu * lm.transpose();
-                let ll = (0..na * na).map(|k| g[(k / na, k % na)]).collect();
-                let l = (&lm * DVector::from_fn(m, |r, _| w[r] * f[r]))
-                    .as_slice()
-                    .to_vec();
-                let h = (&lm * DVector::from_fn(m, |r, _| wf[r] * f[r]))
-                    .as_slice()
-                    .to_vec();
-                Some((ll, l, h))
-            })
+            .map(|&n| Some(two_lobe_sums(&lobes, tables.fresnel(n)?, w, wf)))
             .collect::<Option<_>>()?;
         let (mut ll, mut l, mut h) = (Vec::new(), Vec::new(), Vec::new());
         for (a, b, c) in per_n {
@@ -368,6 +355,50 @@ fn grid_sums_row(ai: &[f64], (bp, b2p): (&[f64], &[f64]), w: &[f64], wf: &[f64])
             ]
         })
         .collect()
+}
+
+/// One n's sums of [`TwoLobeGram`] from the lobes `lobes` (rows zero-padded to whole blocks
+/// of [`LANES`]) and that n's Fresnel factors `f`: Σ w F² La Lb (na × na, symmetric, each
+/// pair summed once), Σ w F La and Σ wf F La, as dot products of w F² La, w F and wf F with
+/// the lobes. (Three nalgebra products per n did the same at about twice the cost, most of it
+/// in packing and allocation, as for [`grid_sums`].)
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+fn two_lobe_sums(
+    lobes: &[f64],
+    f: &[f64],
+    w: &[f64],
+    wf: &[f64],
+) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let m = f.len();
+    let mp = m.next_multiple_of(LANES);
+    let na = lobes.len() / mp.max(1);
+    let (mut u, mut v, mut q) = (vec![0.0; mp], vec![0.0; mp], vec![0.0; mp]);
+    for ((((ur, vr), qr), &fr), (&wr, &wfr)) in u
+        .iter_mut()
+        .zip(&mut v)
+        .zip(&mut q)
+        .zip(f)
+        .zip(w.iter().zip(wf))
+    {
+        *vr = wr * fr;
+        *ur = *vr * fr;
+        *qr = wfr * fr;
+    }
+    let mut ll = vec![0.0; na * na];
+    let mut ua = vec![0.0; mp];
+    for (a, la) in lobes.chunks_exact(mp).enumerate() {
+        for ((x, &ur), &lr) in ua.iter_mut().zip(&u).zip(la) {
+            *x = ur * lr;
+        }
+        for (b, lb) in lobes.chunks_exact(mp).enumerate().skip(a) {
+            let g = dot_lanes(&ua, lb);
+            ll[a * na + b] = g;
+            ll[b * na + a] = g;
+        }
+    }
+    let l = lobes.chunks_exact(mp).map(|la| dot_lanes(&v, la)).collect();
+    let h = lobes.chunks_exact(mp).map(|la| dot_lanes(&q, la)).collect();
+    (ll, l, h)
 }
 
 /// Σ x·y over whole blocks of [`LANES`] (a tail shorter than a block is left out), in
@@ -2115,7 +2146,7 @@ mod tests {
         assert!(scores.iter().all(|&s| s == 1.0) && minima.is_none());
     }
 
-    /// The two-lobe Gram sums from the matrix products equal, point by point, the row loop of
+    /// The two-lobe Gram sums ([`two_lobe_sums`]) equal, point by point, the row loop of
     /// [`gram_sums`] over the tabulated bases (lobe at α1, lobe at α2, ones).
     #[test]
     fn two_lobe_gram_matches_the_row_sums() {
