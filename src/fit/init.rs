@@ -191,12 +191,11 @@ impl TwoLobeGram {
     fn new(tables: &LobeTables, alphas: &[f64], ns: &[f64], w: &[f64], wf: &[f64]) -> Option<Self> {
         use rayon::prelude::*;
         let (m, na) = (tables.m, alphas.len());
-        // The lobes, padded with zeros to whole blocks of lanes (0·0 adds nothing to a sum).
-        let mp = m.next_multiple_of(LANES);
-        let mut lobes = vec![0.0; na * mp];
-        for (row, &a) in lobes.chunks_exact_mut(mp).zip(alphas) {
-            row[..m].copy_from_slice(tables.lobe(a)?);
-        }
+        let lobes: Vec<&[f64]> = alphas
+            .iter()
+            .map(|&a| tables.lobe(a))
+            .collect::<Option<_>>()?;
+        let lobes = padded_rows(lobes, m);
         // Each n's sums on their own (in parallel: the same values on any number of threads).
         let per_n: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> = ns
             .par_iter()
@@ -308,20 +307,8 @@ pub(super) fn basis_sums_body(s: &[f64], w: &[f64], wf: &[f64]) -> [f64; 3] {
 /// 0.13 ms of its 0.6 ms, most of it in packing and allocation.)
 fn grid_sums(a: &[f64], b: &[f64], m: usize, w: &[f64], wf: &[f64]) -> Vec<[f64; 3]> {
     use rayon::prelude::*;
-    // Rows padded with zeros to whole blocks of lanes (0·0 adds nothing to a sum).
-    let mp = m.next_multiple_of(LANES);
-    let nb = b.len() / m;
-    let (mut bp, mut b2p) = (vec![0.0; nb * mp], vec![0.0; nb * mp]);
-    for ((r, p), p2) in b
-        .chunks_exact(m)
-        .zip(bp.chunks_exact_mut(mp))
-        .zip(b2p.chunks_exact_mut(mp))
-    {
-        p[..m].copy_from_slice(r);
-        for (q, &x) in p2.iter_mut().zip(r) {
-            *q = x * x;
-        }
-    }
+    let bp = padded_rows(b.chunks_exact(m), m);
+    let b2p: Vec<f64> = bp.iter().map(|x| x * x).collect();
     // The rows of `a` in parallel (each sum is the same on any number of threads).
     a.par_chunks_exact(m)
         .flat_map_iter(|ai| grid_sums_row(ai, (&bp, &b2p), w, wf))
@@ -399,6 +386,18 @@ fn two_lobe_sums(
     let l = lobes.chunks_exact(mp).map(|la| dot_lanes(&v, la)).collect();
     let h = lobes.chunks_exact(mp).map(|la| dot_lanes(&q, la)).collect();
     (ll, l, h)
+}
+
+/// `rows` (each `m` long) one after another, each padded with zeros to whole blocks of
+/// [`LANES`] (0·0 adds nothing to a [`dot_lanes`] sum).
+fn padded_rows<'a>(rows: impl IntoIterator<Item = &'a [f64]>, m: usize) -> Vec<f64> {
+    let mp = m.next_multiple_of(LANES);
+    let mut out = Vec::new();
+    for r in rows {
+        out.extend_from_slice(&r[..m]);
+        out.resize(out.len() + mp - m, 0.0);
+    }
+    out
 }
 
 /// Σ x·y over whole blocks of [`LANES`] (a tail shorter than a block is left out), in
