@@ -250,7 +250,16 @@ pub struct Limits {
     /// the last `stall.0` accepted steps (a slide along a plateau that every step still
     /// lowers a little); `stall.0 = 0` (the default) turns it off.
     pub stall: (usize, f64),
+    /// Levenberg–Marquardt only: stop, converged, when the last [`RESOLUTION_STEPS`] accepted
+    /// steps together lowered the cost by at most this fraction of it (the data's resolution:
+    /// see `fit::RESOLUTION`); 0 (the default) turns it off. Summed over steps, not
+    /// judged per step, so a slow slide along a valley, where each step gains little but the
+    /// steps add up, is not mistaken for convergence.
+    pub resolution: f64,
 }
+
+/// Accepted steps whose summed cost reduction [`Limits::resolution`] judges.
+pub const RESOLUTION_STEPS: usize = 3;
 
 impl Default for Limits {
     fn default() -> Self {
@@ -261,6 +270,7 @@ impl Default for Limits {
             xtol: 1e-15,
             gtol: 1e-14,
             stall: (0, 0.0),
+            resolution: 0.0,
         }
     }
 }
@@ -559,7 +569,8 @@ pub fn levenberg_marquardt<P: Problem>(
     let mut steps = 0;
     let mut termination = "iteration limit reached".to_string();
     let mut converged = false;
-    // The cost at the start and after each accepted step (for `limits.stall`).
+    // The cost at the start and after each accepted step (for `limits.stall` and
+    // `limits.resolution`).
     let mut accepted = vec![ne.cost];
     // Where the cost curves more than JᵀJ says along the step (a large residual), the
     // Gauss–Newton step overshoots and the steps alternate in sign, each a fixed fraction of
@@ -707,9 +718,22 @@ pub fn levenberg_marquardt<P: Problem>(
                 converged = true;
                 break;
             }
+            accepted.push(ne.cost);
+            let k = RESOLUTION_STEPS;
+            if limits.resolution > 0.0
+                && accepted.len() > k
+                && accepted[accepted.len() - 1 - k] - ne.cost <= limits.resolution * ne.cost
+            {
+                termination = format!(
+                    "cost within the data's resolution: {k} steps lowered it by less than {:.1e} \
+                     relative",
+                    limits.resolution
+                );
+                converged = true;
+                break;
+            }
             let (window, tol) = limits.stall;
             if window > 0 {
-                accepted.push(ne.cost);
                 let before = accepted[accepted.len().saturating_sub(window + 1)];
                 if accepted.len() > window && ne.cost >= before * (1.0 - tol) {
                     termination = format!(
@@ -1191,6 +1215,61 @@ pub(crate) mod tests {
         );
         // Off by default: every other run is unchanged.
         assert_eq!(Limits::default().stall.0, 0);
+    }
+
+    /// r = 1 − x/10⁶ from x = 1: the step bound lets x at most double per step, so each step
+    /// lowers the cost by about 2x·10⁻⁶ of it, a slide that speeds up until x nears 10⁶.
+    struct Slide;
+
+    impl Problem for Slide {
+        type Prepared = f64;
+        fn dim(&self) -> usize {
+            1
+        }
+        fn n_residuals(&self) -> usize {
+            1
+        }
+        fn prepare(&self, x: &[f64]) -> Option<f64> {
+            Some(x[0])
+        }
+        fn residual_grad(&self, x: &f64, _: usize, row: &mut [f64]) -> f64 {
+            row[0] = -1e-6;
+            1.0 - x * 1e-6
+        }
+        fn bounds(&self) -> Vec<(f64, f64)> {
+            vec![(1e-9, f64::INFINITY)]
+        }
+    }
+
+    #[test]
+    fn the_resolution_ends_a_converging_tail_not_a_slide() {
+        let tol = 5e-6;
+        let resolution = Limits {
+            resolution: tol,
+            ..Limits::default()
+        };
+        // The plateau's whole remaining fall from x = 1 is ½·10⁻⁶, below 5·10⁻⁶ of the cost:
+        // the first three steps end it, converged.
+        let tail = levenberg_marquardt(&Plateau, &[1.0], Robust::None, &resolution);
+        assert!(
+            tail.converged && tail.termination.contains("resolution"),
+            "{tail:?}"
+        );
+        assert_eq!(tail.iterations, RESOLUTION_STEPS, "{tail:?}");
+        // The slide's first steps each gain less than 5·10⁻⁶ of the cost (x = 1 → 2: 2·10⁻⁶),
+        // three together more: it goes on to the minimum x = 10⁶, where a per-step test of
+        // the same tolerance (ftol) stops at once.
+        let slide = levenberg_marquardt(&Slide, &[1.0], Robust::None, &resolution);
+        assert!((slide.x[0] - 1e6).abs() < 1.0, "{slide:?}");
+        assert!(slide.iterations > 15, "{slide:?}");
+        let per_step = Limits {
+            ftol: tol,
+            ..Limits::default()
+        };
+        let early = levenberg_marquardt(&Slide, &[1.0], Robust::None, &per_step);
+        assert!(early.x[0] < 10.0, "{early:?}");
+        // Off by default.
+        assert_eq!(Limits::default().resolution, 0.0);
     }
 
     #[test]

@@ -57,8 +57,8 @@ pub use format::{
 };
 pub use setup::solid_angle_weights;
 use setup::{ChannelRows, channel_rows, check_data, layout, problem};
-pub use solve::random_start;
 use solve::search;
+pub use solve::{RESOLUTION, random_start};
 pub use stats::describe_range;
 use stats::{reported, uncertainty};
 
@@ -152,6 +152,10 @@ pub struct FitOptions {
     pub fast_pow: Option<u32>,
     /// Solver limits.
     pub limits: Limits,
+    /// Where the polish on every row stops: once its last steps lowered the cost by less than
+    /// this fraction of the rise one standard error brings (see [`RESOLUTION`]); 0 runs it to
+    /// `limits.ftol`.
+    pub resolution: f64,
     /// Profile undetermined parameters to report the range that fits.
     pub profile: bool,
     /// Random local starts run after the fit as a certificate (0 = none); see [`Verification`].
@@ -180,6 +184,7 @@ impl FitOptions {
             local_only: false,
             fast_pow: None,
             limits: Limits::default(),
+            resolution: RESOLUTION,
             profile: true,
             verify: 0,
             seed: 1,

@@ -39,6 +39,14 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
     } else {
         opts.limits
     };
+    // On every row the data's resolution ends the polish (see [`RESOLUTION`]); the same on a
+    // small file's candidates, which are refined on every row and not polished again.
+    let polish_limits = polish_limits(full, opts);
+    let refine_limits = if sub.is_some() {
+        refine_limits
+    } else {
+        polish_limits
+    };
     let refine = |x0: &Vec<f64>| lsq::solve(work, x0, opts.method, Robust::None, &refine_limits);
     let start = || start_vector(full, &lay.specs, &lay.names, &opts.start);
     // The grid's subsample is drawn from the local stage's (the same largest values, no
@@ -83,11 +91,11 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
             .map(|s| match &mid {
                 Some(mp) => {
                     let m = lsq::solve(mp, &s.x, opts.method, robust, &mid_limits);
-                    let f = lsq::solve(full, &m.x, opts.method, robust, &opts.limits);
+                    let f = lsq::solve(full, &m.x, opts.method, robust, &polish_limits);
                     (f, m.iterations, m.evaluations)
                 }
                 None => (
-                    lsq::solve(full, &s.x, opts.method, robust, &opts.limits),
+                    lsq::solve(full, &s.x, opts.method, robust, &polish_limits),
                     0,
                     0,
                 ),
@@ -109,7 +117,7 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
             for x0 in &candidates {
                 let c0 = lsq::cost(full, x0, robust).unwrap_or(f64::INFINITY);
                 if c0 < best.cost {
-                    let s = lsq::solve(full, x0, opts.method, robust, &opts.limits);
+                    let s = lsq::solve(full, x0, opts.method, robust, &polish_limits);
                     iterations += s.iterations;
                     evaluations += s.evaluations;
                     if s.cost < best.cost {
@@ -129,6 +137,28 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
         refine_limits,
         iterations,
         evaluations,
+    }
+}
+
+/// The fraction of one standard error's rise in the cost (σ̂²/2 = S/(m − p) for the cost S =
+/// ½ Σ r² over m rows and p free variables) by which the polish's last
+/// [`lsq::RESOLUTION_STEPS`] steps together must lower the cost for it to go on: below that
+/// the steps move the parameters by a small fraction of a standard error (a cost ε·S/(m − p)
+/// above the minimum is √ε standard errors from it). On every fit of `--model all` over
+/// the bundled and test files (1,854 fits) the parameters ended within 0.005 standard errors
+/// of where a polish to ftol = 1e-14 ends, the cost within 1e-8 of its cost relative, with 2.5 % fewer
+/// evaluations in all and 11 % fewer on MERL aluminium, a metal whose weakly determined index
+/// n makes the last steps crawl (on its green channel TS-d3's polish took 29 steps, not 37;
+/// TS-D2's 22, not 36).
+pub const RESOLUTION: f64 = 1e-6;
+
+/// The limits of a polish on every row of `full`: `opts.limits` with the data's resolution
+/// ([`FitOptions::resolution`] of S/(m − p), relative to the cost).
+pub(super) fn polish_limits(full: &BrdfProblem, opts: &FitOptions) -> Limits {
+    let dof = full.n_residuals().saturating_sub(full.dim()).max(1);
+    Limits {
+        resolution: opts.resolution / dof as f64,
+        ..opts.limits
     }
 }
 
