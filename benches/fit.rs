@@ -65,7 +65,8 @@ fn methods(c: &mut Criterion) {
 
 /// Every model (each Torrance–Sparrow distribution separately), default pipeline and log loss:
 /// on the bundled MERL alumina-oxide table (green, 16,512 samples), then on 10k and 1M
-/// synthetic samples drawn from that model's own fit (hemisphere, 1 % noise).
+/// synthetic samples drawn from that model's own fit (hemisphere, 1 % noise); `--model all`
+/// on that table and on MERL aluminium's blue channel.
 fn models(c: &mut Criterion) {
     let full = brdfit::load(
         std::path::Path::new("data/merl-alumina-oxide.csv"),
@@ -103,6 +104,17 @@ fn models(c: &mut Criterion) {
         .collect();
     g.bench_function("all/merl-alumina-oxide", |b| {
         b.iter(|| fit::fit_models(&real, &all, 1).unwrap())
+    });
+    // The slowest bundled channel for `--model all`: a metal's fits take the most steps.
+    let metal = brdfit::load(
+        std::path::Path::new("data/merl-aluminium.csv"),
+        &brdfit::LoadOptions::default(),
+    )
+    .expect("data/merl-aluminium.csv (run from the checkout)")
+    .select(&brdfit::data::ChannelSelect::Index(2))
+    .expect("a blue channel");
+    g.bench_function("all/merl-aluminium-b", |b| {
+        b.iter(|| fit::fit_models(&metal, &all, 1).unwrap())
     });
     g.finish();
 }

@@ -1741,3 +1741,58 @@ fn fit_solid_angle_weights_equal_a_weight_column() {
     );
     assert!((solid - plain).abs() > 1e-4 * plain, "{solid} vs {plain}");
 }
+
+/// `--resolution`: the default stops the polish of a metal's fit at the data's resolution,
+/// 0 runs it to the relative tolerance 1e-14 (a lower or equal cost, more evaluations), and a
+/// value that is not a fraction is a usage error naming the fix.
+#[test]
+fn resolution_flag_sets_where_the_polish_stops() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |extra: &[&str]| -> serde_json::Value {
+        let json = dir.path().join("f.json");
+        let mut args = vec![
+            "fit",
+            "data/merl-aluminium.csv",
+            "--channel",
+            "g",
+            "-q",
+            "--json",
+            json.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let out = brdfit(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        v
+    };
+    let default = run(&[]);
+    let full = run(&["--resolution", "0"]);
+    let term = |v: &serde_json::Value| v["termination"].as_str().unwrap().to_string();
+    assert!(term(&default).contains("resolution"), "{}", term(&default));
+    assert!(!term(&full).contains("resolution"), "{}", term(&full));
+    let cost = |v: &serde_json::Value| v["cost"].as_f64().unwrap();
+    assert!(
+        cost(&full) <= cost(&default) && cost(&default) - cost(&full) <= 1e-8 * cost(&full),
+        "{} vs {}",
+        cost(&default),
+        cost(&full)
+    );
+    let evals = |v: &serde_json::Value| v["evaluations"].as_u64().unwrap();
+    assert!(
+        evals(&default) < evals(&full),
+        "{} vs {}",
+        evals(&default),
+        evals(&full)
+    );
+    for bad in ["-1", "2", "nan", "x"] {
+        expect_usage_error(
+            &["fit", "data/merl-aluminium.csv", "--resolution", bad],
+            &["--resolution", "fix: e.g. --resolution 1e-6"],
+        );
+    }
+}

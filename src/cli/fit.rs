@@ -268,6 +268,7 @@ pub(crate) fn fit_one(
             .cloned()
             .collect();
         o.local_only = a.local_only;
+        o.resolution = a.resolution;
         o.fast_pow = a.fast_pow;
         o.verify = a.verify;
         o.seed = a.verify_seed;
