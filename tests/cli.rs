@@ -1789,6 +1789,10 @@ fn resolution_flag_sets_where_the_polish_stops() {
         evals(&default),
         evals(&full)
     );
+    // The flag's default is the library's.
+    assert_eq!(brdfit::fit::RESOLUTION, 1e-6);
+    let help = String::from_utf8_lossy(&brdfit(&["fit", "--help"]).stdout).to_string();
+    assert!(help.contains("[default: 1e-6]"), "{help}");
     for bad in ["-1", "2", "nan", "x"] {
         expect_usage_error(
             &["fit", "data/merl-aluminium.csv", "--resolution", bad],

@@ -911,3 +911,26 @@ fn the_polish_ends_at_the_data_resolution_within_a_hundredth_of_a_standard_error
     }
     assert!(evals < evals_full, "{evals} vs {evals_full}");
 }
+
+/// A fit stopped by its iteration limit says so in the flags of the compact table
+/// (`unconverged`), not only in its warnings; a converged one does not.
+#[test]
+fn an_unconverged_fit_is_flagged() {
+    let ds = load("data/blinn-mgo.csv");
+    let done = &fit::fit(&ds, &ts()).unwrap()[0];
+    assert!(
+        !done.flags().contains(&"unconverged".to_string()),
+        "{:?}",
+        done.flags()
+    );
+    let mut o = ts();
+    o.limits.max_iter = 1;
+    o.profile = false;
+    let cut = &fit::fit(&ds, &o).unwrap()[0];
+    assert!(
+        cut.warnings.iter().any(|w| w.contains("before converging")),
+        "{:?}",
+        cut.warnings
+    );
+    assert_eq!(cut.flags()[0], "unconverged", "{:?}", cut.flags());
+}

@@ -84,11 +84,12 @@ pub(crate) struct FitArgs {
     /// Skip the global initialisation (local method from --start or the default start only).
     #[arg(long)]
     pub(crate) local_only: bool,
-    /// Where the polish on every sample stops: once its last three steps lowered the cost by
-    /// less than F of the rise one standard error brings (the parameters then end within about
-    /// √F standard errors of the minimum). 0 polishes to a relative cost change of 1e-14, for
-    /// comparisons with other fitters to the last digits.
-    #[arg(long, value_name = "F", default_value_t = brdfit::fit::RESOLUTION, value_parser = parse_resolution, allow_negative_numbers = true)]
+    /// Where the final refinement on all samples stops (--method lm, the default, only): once
+    /// its last three steps together lowered the cost by less than F times the rise that one
+    /// standard error brings, so that the parameters end within about √F standard errors of the
+    /// minimum. 0 runs it on to a relative cost change of 1e-14, for comparisons with other
+    /// fitters to the last digits.
+    #[arg(long, value_name = "F", default_value = "1e-6", value_parser = parse_resolution, allow_negative_numbers = true)]
     pub(crate) resolution: f64,
     /// Certificate: after the fit, refine K seeded random starts and report whether any ended
     /// lower (JSON `verified`, `verify_best_cost`); a fit one of them beats is marked not usable.
@@ -187,8 +188,12 @@ impl ModelArgs {
 fn parse_resolution(s: &str) -> std::result::Result<f64, String> {
     match s.trim().parse::<f64>() {
         Ok(f) if (0.0..=1.0).contains(&f) => Ok(f),
-        _ => Err(format!(
-            "'{s}' is not a fraction from 0 to 1\n  fix: e.g. --resolution 1e-6 (the default), or 0 \
+        Ok(_) => Err(format!(
+            "{s} is not a fraction from 0 to 1\n  fix: e.g. --resolution 1e-6 (the default), or 0 \
+             to polish to the last digits"
+        )),
+        Err(_) => Err(format!(
+            "'{s}' is not a number\n  fix: e.g. --resolution 1e-6 (the default), or 0 \
              to polish to the last digits"
         )),
     }

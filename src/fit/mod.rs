@@ -359,14 +359,18 @@ impl FitResult {
         m
     }
 
-    /// Short flags: `bound:NAME` for a parameter on a bound, `weak:NAME` for one the data
-    /// determine only weakly (its range within 1 % of the minimum cost is wide).
+    /// Short flags: `unconverged` for a fit whose solver stopped at a limit before converging
+    /// (its warning says which), `bound:NAME` for a parameter on a bound, `weak:NAME` for one
+    /// the data determine only weakly (its range within 1 % of the minimum cost is wide).
     pub fn flags(&self) -> Vec<String> {
         let mut flags: Vec<String> = self
-            .at_bound
+            .warnings
             .iter()
-            .map(|(n, _)| format!("bound:{n}"))
+            .filter(|w| w.starts_with(UNCONVERGED))
+            .take(1)
+            .map(|_| "unconverged".to_string())
             .collect();
+        flags.extend(self.at_bound.iter().map(|(n, _)| format!("bound:{n}")));
         flags.extend(
             self.ranges
                 .iter()
@@ -841,6 +845,10 @@ type ChannelGeometries = Vec<(ChannelRows, f64)>;
 /// One entry's fits of [`fit_models`], or its error.
 type FitsOrError = Result<Vec<FitResult>, FitError>;
 
+/// The start of the warning of a fit whose solver stopped before converging (the flag
+/// `unconverged` of [`FitResult::flags`]).
+const UNCONVERGED: &str = "the solver stopped before converging";
+
 /// The relative cost of a fit of `o` on real data, larger is dearer: [`fit_models`] starts
 /// the dearest first and counts a fit's progress in these units. Seconds per channel of a full
 /// MERL table (steel, 1,096,216 rows, `fit --model all`, the tenth round's binary: lambert
@@ -914,10 +922,7 @@ fn fit_group(
         );
     }
     if !found.sol.converged {
-        warnings.push(format!(
-            "the solver stopped before converging: {}",
-            found.sol.termination
-        ));
+        warnings.push(format!("{UNCONVERGED}: {}", found.sol.termination));
     }
     let checks = certify(&full, &mut found, &lay, &theta, opts);
     let u = uncertainty(&full, &found.sol, &theta, cost, &lay, opts, &mut warnings);
