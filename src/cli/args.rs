@@ -186,17 +186,14 @@ impl ModelArgs {
 
 /// `--resolution F`: a fraction, 0 ≤ F ≤ 1.
 fn parse_resolution(s: &str) -> std::result::Result<f64, String> {
-    match s.trim().parse::<f64>() {
-        Ok(f) if (0.0..=1.0).contains(&f) => Ok(f),
-        Ok(_) => Err(format!(
-            "{s} is not a fraction from 0 to 1\n  fix: e.g. --resolution 1e-6 (the default), or 0 \
-             to polish to the last digits"
-        )),
-        Err(_) => Err(format!(
-            "'{s}' is not a number\n  fix: e.g. --resolution 1e-6 (the default), or 0 \
-             to polish to the last digits"
-        )),
-    }
+    let why = match s.trim().parse::<f64>() {
+        Ok(f) if (0.0..=1.0).contains(&f) => return Ok(f),
+        Ok(_) => format!("{s} is not a fraction from 0 to 1"),
+        Err(_) => format!("'{s}' is not a number"),
+    };
+    Err(format!(
+        "{why}\n  fix: e.g. --resolution 1e-6 (the default), or 0 to polish to the last digits"
+    ))
 }
 
 /// Parse `NAME=VALUE` items of a flag.

@@ -363,13 +363,10 @@ impl FitResult {
     /// (its warning says which), `bound:NAME` for a parameter on a bound, `weak:NAME` for one
     /// the data determine only weakly (its range within 1 % of the minimum cost is wide).
     pub fn flags(&self) -> Vec<String> {
-        let mut flags: Vec<String> = self
-            .warnings
-            .iter()
-            .filter(|w| w.starts_with(UNCONVERGED))
-            .take(1)
-            .map(|_| "unconverged".to_string())
-            .collect();
+        let mut flags = Vec::new();
+        if self.warnings.iter().any(|w| w.starts_with(UNCONVERGED)) {
+            flags.push("unconverged".to_string());
+        }
         flags.extend(self.at_bound.iter().map(|(n, _)| format!("bound:{n}")));
         flags.extend(
             self.ranges

@@ -30,20 +30,15 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
     let sub = (full.rows.len() > per * full.layout.len())
         .then(|| mid.as_ref().unwrap_or(full).subsample(per));
     let work = sub.as_ref().unwrap_or(full);
-    // On a subsample only the basin matters: the polish on every row sets the final accuracy.
+    // On every row the data's resolution ends the polish (see [`RESOLUTION`]); the same on a
+    // small file's candidates, which are refined on every row and not polished again. On a
+    // subsample only the basin matters: the polish on every row sets the final accuracy.
+    let polish_limits = polish_limits(full, opts);
     let refine_limits = if sub.is_some() {
         Limits {
             ftol: opts.limits.ftol.max(1e-8),
             ..opts.limits
         }
-    } else {
-        opts.limits
-    };
-    // On every row the data's resolution ends the polish (see [`RESOLUTION`]); the same on a
-    // small file's candidates, which are refined on every row and not polished again.
-    let polish_limits = polish_limits(full, opts);
-    let refine_limits = if sub.is_some() {
-        refine_limits
     } else {
         polish_limits
     };
