@@ -4,7 +4,7 @@ usage: python mitsuba_eval.py EXPORT.xml DIRS.csv OUT.csv
 
 DIRS.csv holds theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg per row (brdfit's convention,
 normal +z). OUT.csv gets r,g,b: Mitsuba's f_r = bsdf.eval(wi = light, wo = eye) / cos(theta_o),
-both directions in the local frame of a surface with normal +z. Used by tests/export.rs.
+both directions in the local frame of a surface with normal +z. Used by tests/it/export.rs.
 """
 import csv
 import math

@@ -8,7 +8,7 @@
 //! φo = π) from a first panel over which the lobe is flat (1e-5 to 0.03 rad, probed), so a
 //! lobe of any width down to the models' sharpest (GGX α = 1e-4) is resolved, and a smooth
 //! integrand (Lambert) is integrated to about 1e-15. About 1,700–13,000 evaluations per θi
-//! (tests/albedo.rs checks it against values worked by hand).
+//! (tests/it/albedo.rs checks it against values worked by hand).
 
 use super::{Geometry, Model};
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -222,7 +222,7 @@ pub fn albedos(model: &Model) -> Vec<(f64, f64)> {
 
 /// [`albedos`] by a coarse rule: the same panels with 3-point instead of 6-point
 /// Gauss–Legendre on each, a quarter of the evaluations. Within 0.2 % of [`albedos`] on every
-/// model of tests/albedo.rs's sweep, broad lobe or mirror-sharp (at most 1 % is asserted): a
+/// model of tests/it/albedo.rs's sweep, broad lobe or mirror-sharp (at most 1 % is asserted): a
 /// screen that spares the fine quadrature where the answer is clearly below a threshold.
 pub fn coarse_albedos(model: &Model) -> Vec<(f64, f64)> {
     use rayon::prelude::*;

@@ -2,7 +2,7 @@
 
 Run once (python3 with numpy, pillow and flip-evaluator 1.7 from PyPI):
     python3 make_pairs.py > reference.csv
-The Rust test (tests/choose.rs) compares brdfit's ꟻLIP with reference.csv.
+The Rust test (tests/it/choose.rs) compares brdfit's ꟻLIP with reference.csv.
 """
 import numpy as np
 from PIL import Image

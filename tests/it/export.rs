@@ -144,7 +144,7 @@ fn csv_rows(p: &std::path::Path) -> Vec<Vec<f64>> {
         .collect()
 }
 
-/// Issue 24, point 6: each exact Mitsuba export loads in Mitsuba 3 and its f_r (bsdf.eval /
+/// Each exact Mitsuba export loads in Mitsuba 3 and its f_r (bsdf.eval /
 /// cos θo) equals `brdfit eval` of the fitted parameters at 300 directions, to float32
 /// precision: a grey ggx-smith with 2 ps > 1 (Mitsuba refuses such an `<rgb>`), a Lambert, and
 /// an RGB ggx-smith (per-channel ps, pd, one lobe). A Torrance–Sparrow fit is exported as a

@@ -1,19 +1,19 @@
 //! The Neural-BRDF evaluator against the tables its authors' networks produced (the excerpts
-//! in tests/data/nbrdf/ of ../shared/data/merl-nbrdf/, made by an independent evaluator), its
+//! in tests/data/nbrdf/ of the Neural-BRDF tables of github.com/asztr/Neural-BRDF, made by an
+//! independent evaluator), its
 //! symmetrised form, its errors, and `brdfit simulate --nbrdf`.
 
-mod common;
 
 use brdfit::data::nbrdf::{Nbrdf, material_names};
 use std::path::PathBuf;
 
 fn weights() -> PathBuf {
-    common::root().join("tests/data/nbrdf/weights-merl8.json")
+    crate::common::root().join("tests/data/nbrdf/weights-merl8.json")
 }
 
 /// Rows of a published table: (θi, φi, θo, φo) in degrees and RGB f_r.
 fn table(name: &str) -> Vec<([f64; 4], [f64; 3])> {
-    let text = std::fs::read_to_string(common::root().join("tests/data/nbrdf").join(name)).unwrap();
+    let text = std::fs::read_to_string(crate::common::root().join("tests/data/nbrdf").join(name)).unwrap();
     text.lines()
         .filter(|l| !l.starts_with('#') && !l.starts_with("theta"))
         .map(|l| {
@@ -65,13 +65,13 @@ fn material_names_and_errors() {
     );
     // Broken files: an error naming the file and the line or key, never a panic.
     let dir = tempfile::tempdir().unwrap();
-    let bad = common::write(dir.path(), "bad.json", b"{\"materials\": {\n  \"a\": [1,\n");
+    let bad = crate::common::write(dir.path(), "bad.json", b"{\"materials\": {\n  \"a\": [1,\n");
     let e = Nbrdf::load(&bad, "a").unwrap_err().to_string();
     assert!(
         e.contains("bad.json:") && e.contains("not valid JSON"),
         "{e}"
     );
-    let shape = common::write(
+    let shape = crate::common::write(
         dir.path(),
         "shape.json",
         br#"{"materials": {"x/a": {"W1": [[1,2]], "b1": [0,0], "W2": [], "b2": [], "W3": [], "b3": []}}}"#,
@@ -81,7 +81,7 @@ fn material_names_and_errors() {
         e.contains("materials.x/a.W1") && e.contains("expected 6"),
         "{e}"
     );
-    let none = common::write(dir.path(), "none.json", b"{\"format\": 1}");
+    let none = crate::common::write(dir.path(), "none.json", b"{\"format\": 1}");
     let e = Nbrdf::load(&none, "a").unwrap_err().to_string();
     assert!(e.contains("key `materials`"), "{e}");
 }

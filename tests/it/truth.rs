@@ -1,21 +1,20 @@
 //! brdfit's fits of MERL materials against an independent truth (the Neural-BRDF networks,
-//! symmetrised) beside the published ABC fits of Löw et al. 2012 (issue 22's measure).
+//! symmetrised) beside the published ABC fits of Löw et al. 2012.
 //!
 //! Training data: each network on the goniometer grid (θi 10–80°, θo 0–85°, φo every 15°; the
-//! tables of ../shared/data/merl-nbrdf/), green channel, every model fitted with the default
+//! tables of the Neural-BRDF networks, github.com/asztr/Neural-BRDF), green channel, every model fitted with the default
 //! options. Test set per material, from seeded streams: 50,000 configurations uniform in solid
 //! angle with θi, θo ≤ 80° (five streams of 10,000: a 10,000-configuration half moved with the
 //! seed by more than the gaps it had to settle); 10,000 near the mirror, θh log-uniform in
 //! 0.01°–30°, φh, φd uniform, θd uniform in 0°–80°, kept where θi, θo ≤ 80°. Error: the RMSE of
 //! ln(1 + f cosθi) − ln(1 + f_truth cosθi) over each half, and over the whole set with the two
-//! halves weighing equally (as in issue 22's set of 10,000 + 10,000).
-//! `cargo test --release --test truth -- --nocapture` prints every model's error on the whole
+//! halves weighing equally (as in a set of 10,000 + 10,000).
+//! `cargo test --release --test it truth:: -- --nocapture` prints every model's error on the whole
 //! set and on its uniform half for the 8 materials, with the default weights and with
 //! `--weights solid-angle`.
 
-mod common;
 
-use common::sphere;
+use crate::common::sphere;
 
 use brdfit::data::nbrdf::Nbrdf;
 use brdfit::data::{Dataset, Quantity};
@@ -56,7 +55,7 @@ impl Abc {
 
 fn abc(name: &str) -> Abc {
     let text =
-        std::fs::read_to_string(common::root().join("tests/data/nbrdf/merl_abc_low2012-merl8.csv"))
+        std::fs::read_to_string(crate::common::root().join("tests/data/nbrdf/merl_abc_low2012-merl8.csv"))
             .unwrap();
     let row: Vec<f64> = text
         .lines()
@@ -70,12 +69,12 @@ fn abc(name: &str) -> Abc {
     Abc([row[1], row[4], row[6], row[7], row[8]])
 }
 
-/// The test set: (angles, uniform half?). Issue 22's 10,000 uniform and 10,000 near-mirror
+/// The test set: (angles, uniform half?). The 10,000 uniform and 10,000 near-mirror
 /// configurations of stream `seed` ([`draws`]), and the uniform halves of streams `seed + 1` to
 /// `seed + 4` (those of `uniform_half_across_test_seeds`): 50,000 uniform configurations. A
 /// uniform half of 10,000 moved with the seed by more than the few percent it had to settle
 /// (the grid's fit at or below ABC on 3, 4, 5, 2, 2 of 8 over seeds 22–26); the near-mirror
-/// half stays issue 22's, and [`log_error`] weighs the halves equally, so the whole set means
+/// half stays the first 10,000, and [`log_error`] weighs the halves equally, so the whole set means
 /// what it meant.
 fn test_set(seed: u64) -> Vec<([f64; 4], bool)> {
     let mut set = draws(seed, 10_000, 10_000);
@@ -233,7 +232,7 @@ fn dense() -> Vec<[f64; 4]> {
 /// The network of `name` and its samples (green) at `dirs` as a data set: the network as it is
 /// (as a goniometer measures it), or with `symmetric` the test's truth ([`Nbrdf::eval_symmetric`]).
 fn training(name: &str, dirs: &[[f64; 4]], symmetric: bool) -> (Nbrdf, Dataset) {
-    let weights = common::root().join("tests/data/nbrdf/weights-merl8.json");
+    let weights = crate::common::root().join("tests/data/nbrdf/weights-merl8.json");
     let net = Nbrdf::load(&weights, &format!("merl/{name}")).unwrap();
     let rgb = brdfit::simulate::simulate_nbrdf(&net, dirs, symmetric);
     let mut ds = Dataset::new(Quantity::Brdf, vec![("g".into(), None)]);
@@ -447,7 +446,7 @@ fn chrome_highlight_is_pinned_but_unresolved() {
 /// (BIC), its errors (whole set / uniform half) and the wins; where the goniometer grid's fit
 /// loses against the fit to the test distribution and ABC: Σr²/n by θh (< 0.5°, 0.5–5°,
 /// 5–20°, ≥ 20°) on the whole set and on the uniform half; each sampling's training samples
-/// per bin. A measurement (about 1.5 min): `cargo test --release --test truth dense --
+/// per bin. A measurement (about 1.5 min): `cargo test --release --test it truth::dense --
 /// --ignored --nocapture`.
 #[test]
 #[ignore]
@@ -572,7 +571,7 @@ fn dense_sampling_against_goniometer_grid() {
 /// How firmly the test set decides the uniform half: the goniometer grid's best usable model
 /// (BIC) and the published ABC fit on the uniform halves of five test sets (seeds 22–26,
 /// 10,000 configurations each; together the uniform half of [`test_set`]), and the uniform
-/// half's best model fitted to 150,000 draws from that half (seed 7). A measurement: `cargo test --release --test truth seeds -- --ignored
+/// half's best model fitted to 150,000 draws from that half (seed 7). A measurement: `cargo test --release --test it truth::seeds -- --ignored
 /// --nocapture`.
 #[test]
 #[ignore]
@@ -723,7 +722,7 @@ fn uniform_half_shoulder_losses_are_the_goniometer_grids() {
 /// `sa` (`fit --weights solid-angle`) and θh: the blend (1 − β) + β sa for several β, and sa
 /// times (1 + c/max(θh, 0.5°)²) (θh in degrees), which approaches the test set's measure (half
 /// of it log-uniform in θh) for some c. The best usable model's wins against ABC (whole set,
-/// uniform half) for each. `cargo test --release --test truth blend -- --ignored --nocapture`.
+/// uniform half) for each. `cargo test --release --test it truth::blend -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn weight_blends_on_the_goniometer_grid() {
@@ -1001,7 +1000,7 @@ fn margin(e: (f64, f64), e_abc: (f64, f64)) -> f64 {
 /// the (model, w) with the largest [`margin`] below ABC on both halves at once (usable fits of
 /// the ladder, and the prototype apart); per w, the materials where some model of the ladder
 /// wins both. A measurement (about 4 min of one core; 8 min wall under load): `cargo test
-/// --release --test truth near_mirror_weight -- --ignored --nocapture`.
+/// --release --test it truth::near_mirror_weight -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn one_fit_for_both_halves_by_near_mirror_weight() {
@@ -1108,9 +1107,9 @@ fn one_fit_for_both_halves_by_near_mirror_weight() {
 }
 
 /// Figure 7 in the image: ꟻLIP p99 over the sphere (front lit 15°, edge lit 95°, 512², the
-/// scene of tests/reference.rs) of the best usable model's render and of the published ABC
+/// scene of tests/it/reference.rs) of the best usable model's render and of the published ABC
 /// fit's, each against the exact render of the network. Prints the table (a measurement, no
-/// threshold): `cargo test --release --test truth -- --ignored --nocapture`.
+/// threshold): `cargo test --release --test it truth:: -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn figure7_flip_of_the_best_model_against_the_network() {

@@ -1,12 +1,11 @@
 //! Loaders against the real files, cross-format identity, round trips, policies.
 
-mod common;
 
 use brdfit::data::{
     self, ChannelSelect, Dataset, Format, LoadOptions, NegativePolicy, Quantity, merl,
 };
 use brdfit::model::{Geometry, Model};
-use common::{root, write};
+use crate::common::{root, write};
 use std::path::Path;
 
 fn load(p: &Path) -> Dataset {

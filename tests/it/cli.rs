@@ -1,9 +1,8 @@
 //! The command line: bad input gives a message that names the file, line and fix, and exit
 //! code 1 (never a panic, 101); usage errors exit 2; the commands work end to end.
 
-mod common;
 
-use common::{fit_object, write};
+use crate::common::{fit_object, write};
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -148,14 +147,14 @@ fn bad_csv_inputs_name_file_line_and_fix() {
     assert!(String::from_utf8_lossy(&ok.stdout).contains("negatives:   1 (clamped to 0)"));
 }
 
-/// Radians under `_deg` headers (issue 24, point 4): Blinn's MgO samples rewritten with their
+/// Radians under `_deg` headers Blinn's MgO samples rewritten with their
 /// angles in radians but the columns still named `_deg` get a warning that names the mix-up and
 /// the fix, from `info`, `fit` and the report's loader; `--trust-units` silences it; the real
 /// file (degrees, θ up to 80°) and the same values under `_rad` get none.
 #[test]
 fn radians_under_degree_headers_are_named() {
     let dir = tempfile::tempdir().unwrap();
-    let ds = common::load("data/blinn-mgo.csv");
+    let ds = crate::common::load("data/blinn-mgo.csv");
     let mut deg = String::from(H);
     let mut rad = String::from("theta_i_rad,phi_i_rad,theta_o_rad,phi_o_rad,brdf\n");
     for k in 0..ds.len() {
@@ -874,8 +873,8 @@ fn fit_repeat_gives_the_same_fit() {
 }
 
 /// `fit --verify K` runs the certificate and writes it to the JSON with the bound report; the
-/// three real cases of issue #14 reach their minima from the command line (costs from the best
-/// of 8 bounded multi-start fits by an independent program, quoted in the issue).
+/// three real cases reach their minima from the command line (costs from the best of 8 bounded
+/// multi-start fits by an independent program, scipy's least_squares: tests/data/REFERENCES.md).
 #[test]
 fn fit_verify_writes_the_certificate_and_real_cases_reach_their_minima() {
     let dir = tempfile::tempdir().unwrap();
@@ -922,7 +921,7 @@ fn fit_verify_writes_the_certificate_and_real_cases_reach_their_minima() {
         assert_eq!(v["unusable"], serde_json::json!([]));
         assert!(v["at_bound"].is_object());
         let cost = v["cost"].as_f64().unwrap();
-        // The issue quotes the independent minimum to 3–6 digits.
+        // The independent minimum is known to 3–6 digits.
         assert!(cost <= best * 1.001, "{file}: cost {cost}, minimum {best}");
     }
 }
@@ -1015,7 +1014,7 @@ fn readme_tour_runs_twice() {
                 created += 1;
             }
         }
-        // Round 0 makes the tour's folders (fig7, choose, …); round 1 finds them.
+        // The first pass makes the tour's folders (fig7, choose, …); the second finds them.
         assert_eq!(
             created > 0,
             round == 0,
@@ -1084,7 +1083,7 @@ fn lobe_of_a_many_channel_fit_draws_the_data_channel() {
 
 const MGO: &str = r#"{"n": 1.8, "c3": 0.35, "ps": 0.667, "pd": 0.333}"#;
 
-/// Issue 26: every hand-edited fit file is refused by every consumer with the key named and
+/// Every hand-edited fit file is refused by every consumer with the key named and
 /// the fix (exit 1, never a panic); the unedited file is accepted.
 #[test]
 fn fit_files_are_read_strictly_by_every_consumer() {
@@ -1272,7 +1271,7 @@ fn fit_files_are_read_strictly_by_every_consumer() {
     assert!(err.contains("although it is marked not usable"), "{err}");
 }
 
-/// Issue 24, point 2: a `--model all` file gives every consumer its recommended model (said on
+/// A `--model all` file gives every consumer its recommended model (said on
 /// stderr), not the first fit; `--model` picks another.
 #[test]
 fn consumers_use_the_recommended_model_or_the_one_asked() {
@@ -1364,7 +1363,7 @@ fn consumers_use_the_recommended_model_or_the_one_asked() {
     assert!(svg.contains("lambert fit (cie-y)") && !svg.contains("ggx-smith"));
 }
 
-/// Issue 24, point 3: a CIE-Y fit is not compared with 400 nm data: refused with the fix, and
+/// A CIE-Y fit is not compared with 400 nm data: refused with the fix, and
 /// with --channel cie-y the charts carry the channel in their title.
 #[test]
 fn a_fit_of_another_channel_is_refused() {
@@ -1450,7 +1449,7 @@ fn a_fit_of_another_channel_is_refused() {
     assert!(svg.contains("channel y"), "the title names the channel");
 }
 
-/// Issue 24's command-line points: `fit x.csv --json x.csv` refuses before fitting (nothing
+/// Command-line safety: `fit x.csv --json x.csv` refuses before fitting (nothing
 /// printed); a multi-channel `--model all` prints the BIC ranking and the verification result
 /// without --verbose; the note after --json counts models and channels; --summary has one
 /// column per parameter, holding the values the fit JSON holds.
@@ -1658,7 +1657,7 @@ fn a_failed_fit_writes_no_file() {
 
 /// `fit --weights solid-angle` is the same fit as `--weights file` on a copy of the data whose
 /// `weight` column holds those weights (a second path through the loader), and differs from
-/// the unweighted fit; the weights themselves are checked by hand in tests/truth.rs. The fit
+/// the unweighted fit; the weights themselves are checked by hand in tests/it/truth.rs. The fit
 /// JSON records `weights` and `weighted`, and the table labels a weighted cost and rmse.
 #[test]
 fn fit_solid_angle_weights_equal_a_weight_column() {

@@ -1,4 +1,4 @@
-//! Corpus test (issue #14): on every real data file the project ships or tests with, at every
+//! Corpus test: on every real data file the project ships or tests with, at every
 //! channel, for every model, the default pipeline's cost is within 1e-6 (relative) of the best
 //! of 64 seeded random local starts on the same samples.
 //!
@@ -9,12 +9,11 @@
 //! (`benches/corpus.sh` prints that table); `BRDFIT_CORPUS_MODELS=ggx-smith-2,…` only the
 //! models named.
 
-mod common;
 
 use brdfit::data::{self, ChannelSelect, Dataset, LoadOptions};
 use brdfit::fit::{self, FitOptions};
 use brdfit::model::{Distribution, ModelKind};
-use common::root;
+use crate::common::root;
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use std::path::PathBuf;

@@ -1,4 +1,4 @@
-//! The issue's sphere scene (issue 22: a unit sphere, one directional light of irradiance π
+//! The sphere scene of the reference tests (a unit sphere, one directional light of irradiance π
 //! at 15° (front lit) or 95° (edge lit) from the view, no ambient term, one ray per pixel),
 //! its exact render of a Neural-BRDF network, and LDR-ꟻLIP over the sphere's pixels.
 

@@ -102,7 +102,7 @@ fn lobes_cannot_swap() {
 
 /// The Mitsuba export: a `blendbsdf` (weight ⅔) of `diffuse` (3 pd) and an even `blendbsdf` of
 /// two `roughconductor`s (3 ps1, 3 ps2), so each part enters with ⅓: the sum is f_r. Checked
-/// here for its numbers; `tests/export.rs` evaluates it in Mitsuba.
+/// here for its numbers; `tests/it/export.rs` evaluates it in Mitsuba.
 #[test]
 fn mitsuba_export_weights() {
     let m = ggx2(0.05, 0.25, 0.4, 0.125, 1.8, 0.2);

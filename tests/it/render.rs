@@ -880,7 +880,7 @@ fn jittered_samples_remove_the_regular_grids_bias_on_an_aligned_edge() {
     }
 }
 
-/// Issue 24, point 1: a scene material `fit = ` an RGB fit file renders in colour: each
+/// A scene material `fit = ` an RGB fit file renders in colour: each
 /// channel of the image equals that channel of the same scene rendered with the channel's
 /// own model (`model = "ggx-smith"`, its ps and pd), so the colour decomposition (one lobe,
 /// per-channel ps and pd) is exact. `fit_model` and `fit_channel` pick from the file.

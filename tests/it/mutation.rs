@@ -1,10 +1,10 @@
-//! Fit files a person edits by hand (issue 26): seeded mutations of real fit JSON, each fed to
+//! Fit files a person edits by hand: seeded mutations of real fit JSON, each fed to
 //! every consumer of fit files. Counted: panics (exit 101 or "panicked"), mutations that make
 //! the file invalid but are accepted (exit 0), valid in-range edits that are refused, and
 //! written outputs holding a non-finite number. All four must be 0.
 //!
 //! The number of mutated files is `BRDFIT_MUTATIONS` (default 24, the CI run; the README's
-//! figures are from 300: `BRDFIT_MUTATIONS=300 cargo test --release --test mutation --
+//! figures are from 300: `BRDFIT_MUTATIONS=300 cargo test --release --test it mutation:: --
 //! --nocapture`).
 
 use rand::{Rng, SeedableRng};

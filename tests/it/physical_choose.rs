@@ -1,7 +1,6 @@
 //! `choose` uses only physical fits, and judges whichever of a model's two fits (scene-weighted,
-//! global) renders closer: the cases of issue 22 (Blinn's MgO edge lit, MERL steel edge lit).
+//! global) renders closer: two cases (Blinn's MgO edge lit, MERL steel edge lit).
 
-mod common;
 
 use brdfit::choose::{self, ChooseOptions, FitUsed, fig7_cases};
 use brdfit::data::nbrdf::Nbrdf;
@@ -77,7 +76,7 @@ fn opts() -> ChooseOptions {
     }
 }
 
-/// Blinn's MgO: edge lit, the simple models' scene-weighted fits reach pd > 1 (issue 22: lambert
+/// Blinn's MgO: edge lit, the simple models' scene-weighted fits reach pd > 1 (lambert
 /// pd 5.65, blinn-phong pd 3.34 at 512²) and are marked; Torrance–Sparrow is chosen. On the
 /// way, the progress lines (a bar's steps) are as many as `progress_steps` says, one per
 /// candidate's global fit among them, and one per cross-validation fold: the 10,000 samples
@@ -85,7 +84,7 @@ fn opts() -> ChooseOptions {
 /// samples.
 #[test]
 fn blinn_mgo_edge_lit_marks_albedo_above_one() {
-    let ds = common::load("data/blinn-mgo.csv");
+    let ds = crate::common::load("data/blinn-mgo.csv");
     let lines = std::sync::Mutex::new(Vec::new());
     let cases = fig7_cases(128);
     let (r, _) = choose::choose(&ds, &cases, &opts(), &|l| {
@@ -128,7 +127,7 @@ fn blinn_mgo_edge_lit_marks_albedo_above_one() {
 #[test]
 fn merl_steel_never_chooses_a_lobe_held_down_by_fresnel() {
     let net = Nbrdf::load(
-        &common::root().join("tests/data/nbrdf/weights-merl8.json"),
+        &crate::common::root().join("tests/data/nbrdf/weights-merl8.json"),
         "merl/steel",
     )
     .unwrap();

@@ -124,7 +124,7 @@ fn agrees_with_a_fine_midpoint_rule_on_broad_lobes() {
 /// make reflect more than it receives. Physical materials pass.
 #[test]
 fn unphysical_models_are_named() {
-    // blinn-mgo edge lit in issue 22: lambert pd 5.65, blinn-phong pd 3.34.
+    // blinn-mgo edge lit, scene-weighted fits: lambert pd 5.65, blinn-phong pd 3.34.
     let why = model_problems(&model(ModelKind::Lambert, &[5.65]));
     assert!(
         why.len() == 1 && why[0].contains("pd = 5.65 > 1"),
@@ -145,7 +145,7 @@ fn unphysical_models_are_named() {
     let why = model_problems(&model(ModelKind::Phong, &[10.0, 0.5, 0.9]));
     assert!(why.len() == 1 && why[0].contains("θi = 85°"), "{why:?}");
     assert!(model_problems(&model(ModelKind::Phong, &[10.0, 0.05, 0.5])).is_empty());
-    // MERL steel edge lit in issue 22: GGX α 0.0075, n = 1.0001 (the bound), ps = 10217.
+    // MERL steel edge lit, scene-weighted fit: GGX α 0.0075, n = 1.0001 (the bound), ps = 10217.
     let steel = model(ModelKind::GgxSmith, &[0.0075, 1.0001, 10217.0, 0.01]);
     let why = model_problems(&steel);
     assert!(

@@ -1,8 +1,7 @@
-//! `choose`'s refit on what the pixel shows (issue 22, "fit where it is judged"): on each
+//! `choose`'s refit on what the pixel shows ("fit where it is judged"): on each
 //! Figure 7 case, the scene-weighted fit's pixel cost, worked out here from the sRGB transfer
 //! function and the pixel counts, is never above the same model's global fit's.
 
-mod common;
 
 use brdfit::choose::{RENDER_COST_ORDER, exposure, fig7_cases, refit_on_pixels, scene_samples};
 use brdfit::data::Dataset;
@@ -53,7 +52,7 @@ fn display_matches_srgb_by_hand() {
 /// `choose`: the refit's pixel cost ≤ the global fit's (relative 1e-9).
 #[test]
 fn scene_weighted_fit_is_never_worse_than_the_global_fit_in_pixels() {
-    let ds = common::load("data/blinn-mgo.csv");
+    let ds = crate::common::load("data/blinn-mgo.csv");
     let truth = Model::blinn_mgo();
     let globals: Vec<Model> = RENDER_COST_ORDER
         .par_iter()

@@ -3,10 +3,9 @@
 //! values outside the ranges README.md states ("Scene files") that were accepted. The oracle
 //! is this file's own table of those ranges, not the reader's code.
 //!
-//! `BRDFIT_SCENE_MUTATIONS=300 cargo test --release --test scene_mutations -- --nocapture`
+//! `BRDFIT_SCENE_MUTATIONS=300 cargo test --release --test it scene_mutations:: -- --nocapture`
 //! runs the 300 of the README; CI runs the default, 40.
 
-mod common;
 
 use brdfit::choose::{self, Case, ChooseOptions};
 use brdfit::model::Model;
@@ -243,7 +242,7 @@ fn mutated_scenes_render_and_choose_without_panic_or_nonfinite_image() {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(40);
-    let root = common::root();
+    let root = crate::common::root();
     let scenes_dir = root.join("data/scenes");
     let mut bases = vec![SMALL.to_string()];
     for f in ["showcase.toml", "mitsuba-front.toml"] {

@@ -1,14 +1,13 @@
 //! The reference `choose` renders of a measurement, against an independent truth: the
 //! Neural-BRDF networks (Sztrajman et al. 2021) of MERL materials, symmetrised, rendered exactly
-//! (every shading point evaluates the network) in the issue's sphere scene: a unit sphere,
+//! (every shading point evaluates the network) in the sphere scene of `common::sphere`: a unit sphere,
 //! one directional light of irradiance π at 15° (front lit) or 95° (edge lit) from the view, no
 //! ambient term, one ray per pixel. Errors are LDR-ꟻLIP (NVIDIA's implementation) over the
 //! sphere's pixels, computed here from the two images.
 //!
-//! `cargo test --release --test reference -- --ignored --nocapture` measures the README's table
+//! `cargo test --release --test it reference:: -- --ignored --nocapture` measures the README's table
 //! (5 materials × 2 scenes at 512², full `choose`).
 
-mod common;
 
 use brdfit::choose::{Case, ChooseOptions, Verdict, choose};
 use brdfit::data::nbrdf::Nbrdf;
@@ -16,10 +15,10 @@ use brdfit::data::{ChannelSelect, Dataset};
 use brdfit::model::{Distribution, Geometry, Model, ModelKind};
 use brdfit::render::measured::Dims;
 use brdfit::simulate::{Grid, simulate_nbrdf};
-use common::sphere::{angles, exact, flip_p99, mask, render, render_exact, scene};
+use crate::common::sphere::{angles, exact, flip_p99, mask, render, render_exact, scene};
 use std::sync::Arc;
 
-/// The five MERL networks issue 23 measures.
+/// The five MERL networks the reference is measured on.
 const MATERIALS: [&str; 5] = [
     "blue-acrylic",
     "steel",
@@ -30,7 +29,7 @@ const MATERIALS: [&str; 5] = [
 
 fn net(name: &str) -> Nbrdf {
     Nbrdf::load(
-        &common::root().join("tests/data/nbrdf/weights-merl8.json"),
+        &crate::common::root().join("tests/data/nbrdf/weights-merl8.json"),
         name,
     )
     .unwrap()

@@ -1,7 +1,6 @@
 //! Fitting: round trips on synthetic data with known truth, global minimum from any start,
 //! the chain rule of the transformed problem, model selection, real data, and error cases.
 
-mod common;
 
 use brdfit::data::{ChannelSelect, Dataset, Quantity};
 use brdfit::fit::lsq::{self, Problem, Robust};
@@ -9,7 +8,7 @@ use brdfit::fit::problem::{BrdfProblem, Loss, Row, Rows, Slot, Transform};
 use brdfit::fit::{self, FitOptions, FitResult};
 use brdfit::model::{Distribution, Geometry, Model, ModelKind};
 use brdfit::simulate::{Grid, simulate};
-use common::load;
+use crate::common::load;
 use rand::{Rng, SeedableRng};
 
 fn ts() -> FitOptions {

@@ -3,11 +3,10 @@
 //! but for the clock; and the physical check's albedos, computed in parallel, against the
 //! quadrature at each angle on this thread.
 
-mod common;
 
 use brdfit::fit::{self, FitOptions, FitResult};
 use brdfit::model::albedo::{ALBEDO_THETA_I_DEG, albedos, directional_albedo};
-use common::load;
+use crate::common::load;
 
 /// A fit without its timings (the only fields allowed to differ between two runs).
 fn untimed(mut f: FitResult) -> FitResult {

@@ -1,12 +1,11 @@
 //! Bad input never crashes brdfit: mutated real files, a catalogue of hostile cases, property
 //! tests of the fitter, and named failure modes of the fitter and renderer.
 
-mod common;
 
 use brdfit::data::{self, Dataset, Format, LoadOptions, NegativePolicy, Quantity};
 use brdfit::fit::{self, FitOptions};
 use brdfit::model::{Distribution, Geometry, Model, ModelKind};
-use common::root;
+use crate::common::root;
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use std::path::Path;
@@ -445,7 +444,7 @@ fn refused(args: &[&str], fragments: &[&str]) {
     }
 }
 
-/// Issue 26's scene cases: every hostile value is refused naming its key, nothing is written.
+/// Scene files: every hostile value is refused naming its key, nothing is written.
 #[test]
 fn scene_catalogue_refuses_each_case_naming_the_key() {
     let dir = tempfile::tempdir().unwrap();

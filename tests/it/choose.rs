@@ -1,7 +1,6 @@
 //! `brdfit choose`: the measurement as a material, scene-weighted samples, image metrics
 //! against NVIDIA's ꟻLIP, and the choices Blinn's Figure 7 predicts.
 
-mod common;
 
 use brdfit::choose::{self, ChooseOptions, fig7_cases};
 use brdfit::model::{Distribution, Model, ModelKind};
@@ -187,7 +186,7 @@ fn delta_e_itp_is_zero_for_equal_and_symmetric() {
 /// reference values and how they were made are in tests/data/flip/.
 #[test]
 fn flip_matches_nvidia_flip_evaluator() {
-    let dir = common::root().join("tests/data/flip");
+    let dir = crate::common::root().join("tests/data/flip");
     let text = std::fs::read_to_string(dir.join("reference.csv")).unwrap();
     let mut n = 0;
     for line in text.lines().skip(1) {
@@ -220,7 +219,7 @@ fn flip_matches_nvidia_flip_evaluator() {
 }
 
 fn choose_file(file: &str) -> brdfit::choose::ChooseResult {
-    let ds = common::load(file);
+    let ds = crate::common::load(file);
     let ds = brdfit::data::representative_channel(&ds).unwrap().0;
     choose::choose(&ds, &fig7_cases(512), &ChooseOptions::default(), &|_| {})
         .unwrap()
@@ -308,7 +307,7 @@ fn merl_alumina_oxide_choices() {
 }
 
 /// `choose.json` has the documented keys, `metric` names an error key of the rows, and the
-/// renders are where the issue fixes them.
+/// renders are where the README documents them.
 #[test]
 fn choose_cli_writes_the_documented_files() {
     let dir = tempfile::tempdir().unwrap();
@@ -324,7 +323,7 @@ fn choose_cli_writes_the_documented_files() {
             "-o",
         ])
         .arg(&out)
-        .current_dir(common::root())
+        .current_dir(crate::common::root())
         .output()
         .unwrap();
     assert!(
@@ -382,7 +381,7 @@ fn choose_cli_writes_the_documented_files() {
             "-o",
         ])
         .arg(&out)
-        .current_dir(common::root())
+        .current_dir(crate::common::root())
         .output()
         .unwrap();
     assert!(!st.status.success());
@@ -423,7 +422,7 @@ fn misspelt_threshold_metric_exits_2() {
             "-o",
         ])
         .arg(dir.path().join("out"))
-        .current_dir(common::root())
+        .current_dir(crate::common::root())
         .output()
         .unwrap();
     assert_eq!(st.status.code(), Some(2));

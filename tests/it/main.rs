@@ -1,0 +1,34 @@
+//! The integration tests, one binary: each module tests one area against values the code did
+//! not produce (hand-worked numbers, finite differences, certified data, peer programs).
+//! Run all with `cargo test --release`; one area with `cargo test --release --test it fit::`.
+
+mod common;
+mod abc;
+mod albedo;
+mod choose;
+mod cli;
+mod cli_hints;
+mod corners;
+mod corpus;
+mod export;
+mod fit;
+mod fit_models;
+mod flip;
+mod ggx;
+mod ggx2;
+mod inverse;
+mod loaders;
+mod model_props;
+mod mutation;
+mod nbrdf;
+mod nist;
+mod physical_choose;
+mod pixel_refit;
+mod plots;
+mod reference;
+mod render;
+mod report;
+mod robustness;
+mod scene_mutations;
+mod study;
+mod truth;
