@@ -9,7 +9,7 @@ ts-abc, ggx-smith, ggx-smith-2). The first --peer is the reference of the ratios
 
 Times. A peer times least_squares alone (its geometry is computed before its clock starts);
 benches/scipy_models.py reports the median time of that geometry as `geometry_seconds`; for a
-peer that does not (../shared/peers/scipy_fit.py, given as --shared-peer) its geometry() is timed
+peer that does not (a peer script given as --shared-peer, e.g. scipy_fit.py) its geometry() is timed
 here, median of 5. brdfit reports `seconds` = `geometry_seconds` (the per-sample pass) +
 `solve_seconds` (set-up, global initialisation, local fits and polish: reaching the minimum) +
 `statistics_seconds` (checks at return, standard errors, correlations, 1 % ranges, the physical

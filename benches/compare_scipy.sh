@@ -2,7 +2,7 @@
 # Side by side: brdfit fit and scipy (least_squares, MINPACK lm) on the same CSV files, same model,
 # same loss (log) and same start, in one run, for every model brdfit fits. The peers:
 # benches/scipy_models.py (every model; written from the papers) and, for Torrance–Sparrow D3,
-# also ../shared/peers/scipy_fit.py (the shared peer, the reference of the ts-d3 ratios as before).
+# also the peer script PEER where it is given (then the reference of the ts-d3 ratios).
 # brdfit runs twice: its default (global initialisation, then the local method; the start is one
 # more candidate) and --local-only (the local method from the start, the same work as the peer).
 # Every time is the median of $REPEAT fits in one process (file reading excluded), the way the
@@ -24,16 +24,22 @@
 #   own/common  own cost relative to common cost at the same parameters; `!` marks |x| > 1e-6
 #
 #   PYTHON=/tmp/peers/bin/python [MODELS="ts-d3 ggx-smith"] [REAL=FILE|""] [REPEAT=5] \
-#     [BRDFIT=PATH] benches/compare_scipy.sh [SIZES...]
+#     [BRDFIT=PATH] [PEER=/path/to/scipy_fit.py] benches/compare_scipy.sh [SIZES...]
 #
-# BRDFIT names another brdfit binary to time (say, a saved build of the round before, for a side
-# by side in one session); without it the script builds this checkout and times that.
+# BRDFIT names another brdfit binary to time (say, a saved build of an earlier version, for a
+# side by side in one run); without it the script builds this checkout and times that. PEER
+# names an extra Torrance–Sparrow D3 peer script (it has no default; without it the ts-d3 rows
+# are against benches/scipy_models.py alone).
 #
 # Needs numpy and scipy for PYTHON (python3 -m venv /tmp/peers && /tmp/peers/bin/pip install numpy scipy).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PYTHON=${PYTHON:-python3}
-PEER=${PEER:-../shared/peers/scipy_fit.py}
+PEER=${PEER:-}
+if [ -n "$PEER" ] && [ ! -f "$PEER" ]; then
+  echo "PEER=$PEER is not a file; fix: give the path of a scipy peer script, or leave PEER unset" >&2
+  exit 2
+fi
 SIZES=${*:-10000 1000000}
 MODELS=${MODELS:-lambert phong blinn-phong ts-d1 ts-d2 ts-d3 ts-abc ggx-smith ggx-smith-2}
 REAL=${REAL-data/merl-alumina-oxide.csv}
@@ -95,10 +101,10 @@ compare() {
   shift 3
   local s peers=()
   s=$(start "$m")
-  if [ "$m" = ts-d3 ] && [ -f "$PEER" ]; then
+  if [ "$m" = ts-d3 ] && [ -n "$PEER" ]; then
     # (its numpy warnings on far-out trial points are dropped)
     $PYTHON "$PEER" "$csv" --loss log --start "$s" --repeat "$REPEAT" --channel "$ch" > "$TMP/shared.json" 2> /dev/null
-    peers+=(--peer "scipy_fit.py (shared)=$TMP/shared.json")
+    peers+=(--peer "$(basename "$PEER")=$TMP/shared.json")
   fi
   # The peer's analytic Jacobian against central differences at the start (on files up to
   # 100k rows: the check costs two residual passes per parameter).
@@ -114,7 +120,9 @@ compare() {
   # shellcheck disable=SC2046
   $BIN fit "$csv" $(args "$m") "$@" --max-input-mb 256 --start "$s" --local-only --repeat "$REPEAT" -q \
     --json "$TMP/local.json" > /dev/null
-  $PYTHON benches/compare_scipy.py "$csv" --model "$m" --channel "$ch" --shared-peer "$PEER" \
+  local shared=()
+  [ -n "$PEER" ] && shared=(--shared-peer "$PEER")
+  $PYTHON benches/compare_scipy.py "$csv" --model "$m" --channel "$ch" "${shared[@]}" \
     "${peers[@]}" --brdfit "default=$TMP/default.json" --brdfit "local-only=$TMP/local.json"
 }
 

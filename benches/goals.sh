@@ -1,28 +1,31 @@
 #!/usr/bin/env bash
-# Issue 25's speed goals, every one measured in one run, for one binary or several side by side
-# (say, this checkout's build and a saved build of the round before), the binaries alternating
-# round by round so that both see the same minutes of a noisy machine:
+# brdfit's speed goals, every one measured in one run, for one binary or several side by side
+# (say, this checkout's build and a saved build of an earlier version), the binaries
+# alternating in each of ROUNDS repetitions so that both see the same minutes of a noisy
+# machine:
 #
 #   scipy 10k, 1M   benches/compare_scipy.sh (TS-d3, default pipeline, REPEAT fits in process,
-#                   the shared peer scipy_fit.py as reference): total and solve ratios
+#                   the peer script PEER as reference where it is given, else
+#                   benches/scipy_models.py): total and solve ratios
 #   models          `fit data/merl-alumina-oxide.csv --channel g --model M --repeat 31` for
-#                   every model: its `seconds` (the median in process) over TS-d3's, same round
+#                   every model: its `seconds` (the median in process) over TS-d3's, same
+#                   repetition
 #   model all       `fit FILE --channel C --model all --repeat 5` on every channel of both
 #                   bundled MERL files (16,512 rows each; a metal's fits take the most steps):
 #                   the wall of the nine fits in process, the median of 5 (as `fit` prints it)
 #   choose          `choose FILE --scene fig7` on every bundled file, wall
-#   report          `report` on data/ (30-40 s a binary a round) on a pseudo-terminal of
+#   report          `report` on data/ (30-40 s a binary a repetition) on a pseudo-terminal of
 #                   160 columns, as a user sees it: the wall, and the longest time in which
 #                   nothing moved on: no line printed, the bar's percentage and message
 #                   unchanged (its clock and estimate ticking do not count; a fit's message
 #                   counts its evaluations, so a running fit moves it)
 #
-#   PYTHON=/tmp/peers/bin/python [ROUNDS=3] [REPEAT=11] [PARTS="scipy models all choose
-#     report"] benches/goals.sh [BIN...] [> LOG]
+#   PYTHON=/tmp/peers/bin/python [PEER=/path/to/scipy_fit.py] [ROUNDS=3] [REPEAT=11]
+#     [PARTS="scipy models all choose report"] benches/goals.sh [BIN...] [> LOG]
 #
 # Without BIN the script builds this checkout and measures that. Every measurement is printed
 # as a raw line (`raw BIN PART KEY VALUE`) as it is taken (compare_scipy.sh's tables as
-# comments, `# ...`), then the summary: per binary and goal the median over the rounds, the
+# comments, `# ...`), then the summary: per binary and goal the median over the repetitions, the
 # range, and whether the median meets the goal (the ratios against scipy as compare_scipy.sh
 # prints them, to 0.1). Any command that fails stops the run with its message. The scipy peer
 # needs numpy and scipy for PYTHON (python3 -m venv /tmp/peers && /tmp/peers/bin/pip install
@@ -43,8 +46,11 @@ if [ ${#bins[@]} -eq 0 ]; then
   cargo build --release -q
   bins=("$PWD/target/release/brdfit")
 fi
-if [ ! -f "${PEER:-../shared/peers/scipy_fit.py}" ]; then
-  echo "warning: no shared peer (${PEER:-../shared/peers/scipy_fit.py}): the scipy ratios are against benches/scipy_models.py" >&2
+if [ -z "${PEER:-}" ]; then
+  echo "note: PEER is not set: the scipy ratios are against benches/scipy_models.py (set PEER=/path/to/scipy_fit.py to use another Torrance–Sparrow D3 peer script)" >&2
+elif [ ! -f "$PEER" ]; then
+  echo "PEER=$PEER is not a file; fix: give the path of a scipy peer script, or leave PEER unset to use benches/scipy_models.py" >&2
+  exit 2
 fi
 has() { case " $PARTS " in *" $1 "*) return 0 ;; *) return 1 ;; esac; }
 TMP=$(mktemp -d)
@@ -71,7 +77,7 @@ echo "goals.sh: $(date -u '+%F %T') UTC, load average $(cut -d' ' -f1-3 /proc/lo
 for _ in $(seq "$ROUNDS"); do
   for b in "${bins[@]}"; do
     if has scipy; then
-      REPEAT=$REPEAT MODELS=ts-d3 REAL='' BRDFIT=$b PYTHON=$PYTHON benches/compare_scipy.sh 10000 1000000 \
+      REPEAT=$REPEAT MODELS=ts-d3 REAL='' BRDFIT=$b PYTHON=$PYTHON PEER=${PEER:-} benches/compare_scipy.sh 10000 1000000 \
         > "$TMP/scipy.txt"
       sed 's/^/# /' "$TMP/scipy.txt"
       # "SIZE ts-d3 brdfit default SOLVE STATS GEOMETRY TOTAL OWN COMMON SOLVEx TOTALx ..."
@@ -155,7 +161,7 @@ echo "load average: $(cut -d' ' -f1-3 /proc/loadavg)"
 $PYTHON - "$TMP/raw.txt" << 'EOF'
 import statistics as st, sys
 from collections import defaultdict
-v = defaultdict(list)  # (bin, part, key) -> values in round order
+v = defaultdict(list)  # (bin, part, key) -> values in repetition order
 for line in open(sys.argv[1]):
     w = line.split()
     if w and w[0] == "raw":

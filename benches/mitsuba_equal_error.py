@@ -3,7 +3,7 @@
 reference, both programs timed in the same run.
 
 Scene: data/scenes/mitsuba-front.toml (or -edge) for brdfit; for Mitsuba the same scene built by
-../shared/peers/mitsuba/blinn_whitted.py (Blinn's Torrance–Sparrow plugin + Whitted integrator),
+blinn_whitted.py in the folder PEERS names (Blinn's Torrance–Sparrow plugin + Whitted integrator),
 with three changes so both render the *same* picture: the aluminium sphere gets brdfit's real
 index n = 200 instead of Mitsuba's complex 'Al' index, its mirror ray the constant weight
 ks = 0.5 of Whitted's equation (the plugin multiplies by F(N·E)), and the floor brdfit's
@@ -19,15 +19,19 @@ median of runs. Both on THREADS threads (default 2). For each Mitsuba sample cou
 at the same error is interpolated (log-log) on the time/error front of all its settings (none,
 uniform and stratified n×n, adaptive threshold/level/block/jitter); the ratio is printed.
 
-usage: THREADS=2 PYTHON benches/mitsuba_equal_error.py [front|edge] [--ref-spp N] [--runs N]
-needs: pip install mitsuba numpy; llvm_ad_rgb needs LLVM ≥ 19 (DRJIT_LIBLLVM_PATH, see
-../shared/peers/README.md).
+usage: PEERS=/path/to/mitsuba-plugins THREADS=2 PYTHON benches/mitsuba_equal_error.py \
+           [front|edge] [--ref-spp N] [--runs N]
+needs: PEERS (no default: the folder of blinn_whitted.py); pip install mitsuba numpy;
+llvm_ad_rgb needs LLVM ≥ 19 (DRJIT_LIBLLVM_PATH).
 """
 import json, math, os, re, statistics, subprocess, sys, tempfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-PEERS = os.environ.get("PEERS", os.path.join(ROOT, "..", "shared", "peers", "mitsuba"))
+PEERS = os.environ.get("PEERS", "")
+if not PEERS or not os.path.isfile(os.path.join(PEERS, "blinn_whitted.py")):
+    sys.exit("PEERS must name the folder of blinn_whitted.py (the Mitsuba Blinn/Whitted plugins); "
+             f"got {PEERS!r}. fix: PEERS=/path/to/mitsuba-plugins")
 BRDFIT = os.environ.get("BRDFIT", os.path.join(ROOT, "target", "release", "brdfit"))
 THREADS = int(os.environ.setdefault("THREADS", "2"))
 

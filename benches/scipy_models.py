@@ -35,7 +35,7 @@ as ln(n − 1), ps and pd as themselves (they may leave [0, ∞): a peer without
 Jacobian is analytic (dF/dn too) and chained through those maps; --check-jac compares it with
 central differences at the start and exits.
 
-Timing as ../shared/peers/scipy_fit.py times itself: geometry() (the parameter-free per-sample
+Timing as a scipy peer script (scipy_fit.py) times itself: geometry() (the parameter-free per-sample
 terms) is computed once per fit before the clock starts and timed on its own; `seconds` is
 least_squares alone; both are medians over --repeat fits. Prints one JSON line: peer, model,
 loss, params, cost, nfev, status, samples, seconds, geometry_seconds.
