@@ -4,4 +4,4 @@
 # seeded random local starts. CI runs the same test on every 6th wavelength.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-BRDFIT_CORPUS=full cargo test --release --test corpus -- --nocapture
+BRDFIT_CORPUS=full cargo test --release --test it corpus:: -- --nocapture

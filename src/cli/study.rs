@@ -25,9 +25,10 @@ pub(crate) enum StudyCommand {
         /// Python with numpy and scipy, to run the scipy peer side by side.
         #[arg(long, env = "BRDFIT_PEER_PYTHON")]
         peer_python: Option<String>,
-        /// The peer script.
-        #[arg(long, default_value = "../shared/peers/scipy_fit.py")]
-        peer_script: PathBuf,
+        /// The peer script: a scipy program that fits the file's samples and prints one JSON
+        /// line (params, cost, seconds); the peer runs only when this and --peer-python are given.
+        #[arg(long)]
+        peer_script: Option<PathBuf>,
         /// Output directory (speed-accuracy.svg/png/csv/md).
         #[arg(short, long)]
         output: PathBuf,
@@ -124,7 +125,8 @@ pub(crate) fn run_study(cmd: StudyCommand) -> Result<()> {
             bar.finish_and_clear();
             match peer_python
                 .as_deref()
-                .and_then(|py| study::scipy_peer(&ds, py, &peer_script))
+                .zip(peer_script.as_deref())
+                .and_then(|(py, script)| study::scipy_peer(&ds, py, script))
             {
                 Some(r) => rows.push(r),
                 None if !quiet() => eprintln!(

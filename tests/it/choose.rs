@@ -1,7 +1,6 @@
 //! `brdfit choose`: the measurement as a material, scene-weighted samples, image metrics
 //! against NVIDIA's ꟻLIP, and the choices Blinn's Figure 7 predicts.
 
-
 use brdfit::choose::{self, ChooseOptions, fig7_cases};
 use brdfit::model::{Distribution, Model, ModelKind};
 use brdfit::render::compare;

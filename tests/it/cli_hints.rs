@@ -3,7 +3,6 @@
 //! with the fix, and every fix works when followed (each test runs the command the hint
 //! gives). `-o NAME.EXT` with an extension the command does not write is refused.
 
-
 use crate::common::{fit_object, write};
 use std::path::Path;
 use std::process::{Command, Output};

@@ -9,11 +9,10 @@
 //! (`benches/corpus.sh` prints that table); `BRDFIT_CORPUS_MODELS=ggx-smith-2,…` only the
 //! models named.
 
-
+use crate::common::root;
 use brdfit::data::{self, ChannelSelect, Dataset, LoadOptions};
 use brdfit::fit::{self, FitOptions};
 use brdfit::model::{Distribution, ModelKind};
-use crate::common::root;
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use std::path::PathBuf;

@@ -1,14 +1,13 @@
 //! Fitting: round trips on synthetic data with known truth, global minimum from any start,
 //! the chain rule of the transformed problem, model selection, real data, and error cases.
 
-
+use crate::common::load;
 use brdfit::data::{ChannelSelect, Dataset, Quantity};
 use brdfit::fit::lsq::{self, Problem, Robust};
 use brdfit::fit::problem::{BrdfProblem, Loss, Row, Rows, Slot, Transform};
 use brdfit::fit::{self, FitOptions, FitResult};
 use brdfit::model::{Distribution, Geometry, Model, ModelKind};
 use brdfit::simulate::{Grid, simulate};
-use crate::common::load;
 use rand::{Rng, SeedableRng};
 
 fn ts() -> FitOptions {

@@ -3,10 +3,9 @@
 //! but for the clock; and the physical check's albedos, computed in parallel, against the
 //! quadrature at each angle on this thread.
 
-
+use crate::common::load;
 use brdfit::fit::{self, FitOptions, FitResult};
 use brdfit::model::albedo::{ALBEDO_THETA_I_DEG, albedos, directional_albedo};
-use crate::common::load;
 
 /// A fit without its timings (the only fields allowed to differ between two runs).
 fn untimed(mut f: FitResult) -> FitResult {

@@ -1,11 +1,10 @@
 //! Loaders against the real files, cross-format identity, round trips, policies.
 
-
+use crate::common::{root, write};
 use brdfit::data::{
     self, ChannelSelect, Dataset, Format, LoadOptions, NegativePolicy, Quantity, merl,
 };
 use brdfit::model::{Geometry, Model};
-use crate::common::{root, write};
 use std::path::Path;
 
 fn load(p: &Path) -> Dataset {

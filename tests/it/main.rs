@@ -2,12 +2,13 @@
 //! not produce (hand-worked numbers, finite differences, certified data, peer programs).
 //! Run all with `cargo test --release`; one area with `cargo test --release --test it fit::`.
 
-mod common;
 mod abc;
 mod albedo;
 mod choose;
 mod cli;
+mod cli_fit;
 mod cli_hints;
+mod common;
 mod corners;
 mod corpus;
 mod export;
@@ -27,8 +28,10 @@ mod pixel_refit;
 mod plots;
 mod reference;
 mod render;
+mod render_aa;
 mod report;
 mod robustness;
 mod scene_mutations;
 mod study;
 mod truth;
+mod truth_two_abc;

@@ -3,7 +3,6 @@
 //! independent evaluator), its
 //! symmetrised form, its errors, and `brdfit simulate --nbrdf`.
 
-
 use brdfit::data::nbrdf::{Nbrdf, material_names};
 use std::path::PathBuf;
 
@@ -13,7 +12,8 @@ fn weights() -> PathBuf {
 
 /// Rows of a published table: (θi, φi, θo, φo) in degrees and RGB f_r.
 fn table(name: &str) -> Vec<([f64; 4], [f64; 3])> {
-    let text = std::fs::read_to_string(crate::common::root().join("tests/data/nbrdf").join(name)).unwrap();
+    let text =
+        std::fs::read_to_string(crate::common::root().join("tests/data/nbrdf").join(name)).unwrap();
     text.lines()
         .filter(|l| !l.starts_with('#') && !l.starts_with("theta"))
         .map(|l| {

@@ -1,7 +1,6 @@
 //! `choose` uses only physical fits, and judges whichever of a model's two fits (scene-weighted,
 //! global) renders closer: two cases (Blinn's MgO edge lit, MERL steel edge lit).
 
-
 use brdfit::choose::{self, ChooseOptions, FitUsed, fig7_cases};
 use brdfit::data::nbrdf::Nbrdf;
 use brdfit::data::{Dataset, Quantity};

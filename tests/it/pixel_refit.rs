@@ -2,7 +2,6 @@
 //! Figure 7 case, the scene-weighted fit's pixel cost, worked out here from the sRGB transfer
 //! function and the pixel counts, is never above the same model's global fit's.
 
-
 use brdfit::choose::{RENDER_COST_ORDER, exposure, fig7_cases, refit_on_pixels, scene_samples};
 use brdfit::data::Dataset;
 use brdfit::fit::{self, FitOptions};

@@ -8,14 +8,13 @@
 //! `cargo test --release --test it reference:: -- --ignored --nocapture` measures the README's table
 //! (5 materials × 2 scenes at 512², full `choose`).
 
-
+use crate::common::sphere::{angles, exact, flip_p99, mask, render, render_exact, scene};
 use brdfit::choose::{Case, ChooseOptions, Verdict, choose};
 use brdfit::data::nbrdf::Nbrdf;
 use brdfit::data::{ChannelSelect, Dataset};
 use brdfit::model::{Distribution, Geometry, Model, ModelKind};
 use brdfit::render::measured::Dims;
 use brdfit::simulate::{Grid, simulate_nbrdf};
-use crate::common::sphere::{angles, exact, flip_p99, mask, render, render_exact, scene};
 use std::sync::Arc;
 
 /// The five MERL networks the reference is measured on.

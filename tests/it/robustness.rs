@@ -1,11 +1,10 @@
 //! Bad input never crashes brdfit: mutated real files, a catalogue of hostile cases, property
 //! tests of the fitter, and named failure modes of the fitter and renderer.
 
-
+use crate::common::root;
 use brdfit::data::{self, Dataset, Format, LoadOptions, NegativePolicy, Quantity};
 use brdfit::fit::{self, FitOptions};
 use brdfit::model::{Distribution, Geometry, Model, ModelKind};
-use crate::common::root;
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use std::path::Path;

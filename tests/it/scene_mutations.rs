@@ -6,7 +6,6 @@
 //! `BRDFIT_SCENE_MUTATIONS=300 cargo test --release --test it scene_mutations:: -- --nocapture`
 //! runs the 300 of the README; CI runs the default, 40.
 
-
 use brdfit::choose::{self, Case, ChooseOptions};
 use brdfit::model::Model;
 use brdfit::render::scene::parse_scene;

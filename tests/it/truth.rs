@@ -13,7 +13,7 @@
 //! set and on its uniform half for the 8 materials, with the default weights and with
 //! `--weights solid-angle`.
 
-
+use super::truth_two_abc::fit_two_abc;
 use crate::common::sphere;
 
 use brdfit::data::nbrdf::Nbrdf;
@@ -24,7 +24,7 @@ use brdfit::{FitOptions, fit};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-const MATERIALS: [&str; 8] = [
+pub(crate) const MATERIALS: [&str; 8] = [
     "alumina-oxide",
     "aluminium",
     "blue-acrylic",
@@ -37,11 +37,11 @@ const MATERIALS: [&str; 8] = [
 
 /// Löw et al. 2012's ABC model as published: (kD, A, B, C, ior), green channel.
 #[derive(Clone, Copy)]
-struct Abc([f64; 5]);
+pub(crate) struct Abc(pub(crate) [f64; 5]);
 
 impl Abc {
     /// f = kD/π + F(ior, E·H) D G/(π cosθi cosθo), D = A/(1 + B(1 − cosθh))^C.
-    fn brdf(&self, g: &Geometry) -> f64 {
+    pub(crate) fn brdf(&self, g: &Geometry) -> f64 {
         let [kd, a, b, c, ior] = self.0;
         if !g.visible() {
             return 0.0;
@@ -53,10 +53,11 @@ impl Abc {
     }
 }
 
-fn abc(name: &str) -> Abc {
-    let text =
-        std::fs::read_to_string(crate::common::root().join("tests/data/nbrdf/merl_abc_low2012-merl8.csv"))
-            .unwrap();
+pub(crate) fn abc(name: &str) -> Abc {
+    let text = std::fs::read_to_string(
+        crate::common::root().join("tests/data/nbrdf/merl_abc_low2012-merl8.csv"),
+    )
+    .unwrap();
     let row: Vec<f64> = text
         .lines()
         .find(|l| l.split(',').next() == Some(name))
@@ -76,7 +77,7 @@ fn abc(name: &str) -> Abc {
 /// (the grid's fit at or below ABC on 3, 4, 5, 2, 2 of 8 over seeds 22–26); the near-mirror
 /// half stays the first 10,000, and [`log_error`] weighs the halves equally, so the whole set means
 /// what it meant.
-fn test_set(seed: u64) -> Vec<([f64; 4], bool)> {
+pub(crate) fn test_set(seed: u64) -> Vec<([f64; 4], bool)> {
     let mut set = draws(seed, 10_000, 10_000);
     for s in seed + 1..=seed + 4 {
         set.extend(draws(s, 10_000, 0));
@@ -87,7 +88,7 @@ fn test_set(seed: u64) -> Vec<([f64; 4], bool)> {
 /// `uniform` configurations uniform in solid angle with θi, θo ≤ 80°, then `mirror` near the
 /// mirror (θh log-uniform in 0.01°–30°, φh, φd uniform, θd uniform in 0°–80°, kept where θi,
 /// θo ≤ 80°), from a ChaCha8 stream seeded with `seed`: (angles, uniform?).
-fn draws(seed: u64, uniform: usize, mirror: usize) -> Vec<([f64; 4], bool)> {
+pub(crate) fn draws(seed: u64, uniform: usize, mirror: usize) -> Vec<([f64; 4], bool)> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let max = 80f64.to_radians();
     let mut out = Vec::with_capacity(uniform + mirror);
@@ -115,7 +116,11 @@ fn draws(seed: u64, uniform: usize, mirror: usize) -> Vec<([f64; 4], bool)> {
 /// RMSE of ln(1 + f cosθi) against the truth: (whole set, uniform half). The whole set's mean
 /// square is the mean of the two halves' (each half weighs ½ however many configurations it
 /// has; a set with one half only is that half).
-fn log_error(set: &[([f64; 4], bool)], truth: &[f64], f: &dyn Fn(&Geometry) -> f64) -> (f64, f64) {
+pub(crate) fn log_error(
+    set: &[([f64; 4], bool)],
+    truth: &[f64],
+    f: &dyn Fn(&Geometry) -> f64,
+) -> (f64, f64) {
     // Σr² and count of the near-mirror half [0] and the uniform half [1].
     let (mut sum, mut n) = ([0.0; 2], [0.0; 2]);
     for ((a, uniform), t) in set.iter().zip(truth) {
@@ -197,7 +202,7 @@ fn count_by_theta_h(dirs: &[[f64; 4]], edges: &[f64]) -> Vec<usize> {
 
 /// The goniometer's grid of the training data (θi 10–80° step 10°, θo 0–85° step 1°, φo
 /// every 15°; 16,512 configurations).
-fn goniometer() -> Vec<[f64; 4]> {
+pub(crate) fn goniometer() -> Vec<[f64; 4]> {
     brdfit::simulate::Grid::Goniometer.directions(0)
 }
 
@@ -231,7 +236,7 @@ fn dense() -> Vec<[f64; 4]> {
 
 /// The network of `name` and its samples (green) at `dirs` as a data set: the network as it is
 /// (as a goniometer measures it), or with `symmetric` the test's truth ([`Nbrdf::eval_symmetric`]).
-fn training(name: &str, dirs: &[[f64; 4]], symmetric: bool) -> (Nbrdf, Dataset) {
+pub(crate) fn training(name: &str, dirs: &[[f64; 4]], symmetric: bool) -> (Nbrdf, Dataset) {
     let weights = crate::common::root().join("tests/data/nbrdf/weights-merl8.json");
     let net = Nbrdf::load(&weights, &format!("merl/{name}")).unwrap();
     let rgb = brdfit::simulate::simulate_nbrdf(&net, dirs, symmetric);
@@ -769,202 +774,6 @@ fn weight_blends_on_the_goniometer_grid() {
             ));
         }
         println!("{label}: wins {wins:?} of 8; {}", line.join("; "));
-    }
-}
-
-/// A prototype rung, not in the catalogue: Torrance–Sparrow with two of Löw et al. 2012's ABC
-/// lobes sharing the Fresnel index, f = kd/π + F(n, E·H) G (A1 D1 + A2 D2)/(π cosθi cosθo),
-/// Dk = (1 + Bk(1 − cosθh))^(−Ck) (Löw et al. 2012, eq. 9, with the V-groove G of the ABC
-/// rows above): [kd, A1, B1, C1, A2, B2, C2, n].
-#[derive(Clone, Copy, Debug)]
-struct TwoAbc([f64; 8]);
-
-impl TwoAbc {
-    /// f_r and, with `grad`, ∂f/∂(ln kd, ln A1, ln B1, ln C1, ln A2, ln B2, ln C2, ln(n − 1)).
-    fn eval(&self, g: &Geometry, grad: Option<&mut [f64; 8]>) -> f64 {
-        let [kd, a1, b1, c1, a2, b2, c2, n] = self.0;
-        if !g.visible() {
-            if let Some(d) = grad {
-                *d = [0.0; 8];
-            }
-            return 0.0;
-        }
-        let u = 1.0 - g.nh;
-        let (f, df) = brdfit::model::fresnel_dn(n, g.eh);
-        let s = geometric_attenuation(g) / (std::f64::consts::PI * g.nl * g.ne);
-        let (d1, d2) = ((1.0 + b1 * u).powf(-c1), (1.0 + b2 * u).powf(-c2));
-        let lobes = a1 * d1 + a2 * d2;
-        if let Some(d) = grad {
-            let (l1, l2) = (f * s * a1 * d1, f * s * a2 * d2);
-            *d = [
-                kd / std::f64::consts::PI,
-                l1,
-                -l1 * c1 * b1 * u / (1.0 + b1 * u),
-                -l1 * c1 * (b1 * u).ln_1p(),
-                l2,
-                -l2 * c2 * b2 * u / (1.0 + b2 * u),
-                -l2 * c2 * (b2 * u).ln_1p(),
-                df * s * lobes * (n - 1.0),
-            ];
-        }
-        kd / std::f64::consts::PI + f * s * lobes
-    }
-
-    /// From the solver's variables (the logarithms of [`TwoAbc::eval`]'s gradient).
-    fn from_x(x: &[f64]) -> TwoAbc {
-        TwoAbc([
-            x[0].exp(),
-            x[1].exp(),
-            x[2].exp(),
-            x[3].exp(),
-            x[4].exp(),
-            x[5].exp(),
-            x[6].exp(),
-            1.0 + x[7].exp(),
-        ])
-    }
-}
-
-/// The log loss of [`TwoAbc`] on training samples: r = √w (ln(1 + f cosθi) − ln(1 + f_data
-/// cosθi)); rows (geometry, cosθi, ln(1 + f_data cosθi), √w).
-struct TwoAbcProblem {
-    rows: Vec<(Geometry, f64, f64, f64)>,
-}
-
-impl brdfit::fit::lsq::Problem for TwoAbcProblem {
-    type Prepared = TwoAbc;
-    fn dim(&self) -> usize {
-        8
-    }
-    fn n_residuals(&self) -> usize {
-        self.rows.len()
-    }
-    fn prepare(&self, x: &[f64]) -> Option<TwoAbc> {
-        x.iter().all(|v| v.abs() < 50.0).then(|| TwoAbc::from_x(x))
-    }
-    fn residual_grad(&self, m: &TwoAbc, i: usize, row: &mut [f64]) -> f64 {
-        let (g, c, t, sw) = &self.rows[i];
-        let mut d = [0.0; 8];
-        let f = m.eval(g, Some(&mut d));
-        let k = sw * c / (1.0 + f * c);
-        for (r, d) in row.iter_mut().zip(d) {
-            *r = k * d;
-        }
-        sw * ((1.0 + f * c).ln() - t)
-    }
-    fn residual(&self, m: &TwoAbc, i: usize) -> f64 {
-        let (g, c, t, sw) = &self.rows[i];
-        sw * ((1.0 + m.eval(g, None) * c).ln() - t)
-    }
-}
-
-/// [`TwoAbc`] fitted (Levenberg–Marquardt, log loss, the data set's weights; rows of weight 0
-/// left out) to `ds`, samples of the network of `name`, from three starts: lobe 1 at the
-/// published ABC fit (a prototype's shortcut), lobe 2 at B/100, B or 100 B with a tenth of A;
-/// the lowest training cost kept.
-fn fit_two_abc(ds: &Dataset, name: &str) -> TwoAbc {
-    use brdfit::fit::lsq::{Limits, Robust, levenberg_marquardt};
-    let rows = (0..ds.len())
-        .map(|k| (k, ds.weights.as_ref().map_or(1.0, |w| w[k])))
-        .filter(|&(_, w)| w > 0.0)
-        .map(|(k, w)| {
-            let a = ds.angles(k);
-            let c = a[0].cos();
-            let t = (1.0 + ds.channels[0].values[k] * c).ln();
-            (
-                Geometry::from_angles(a[0], a[1], a[2], a[3]),
-                c,
-                t,
-                w.sqrt(),
-            )
-        })
-        .collect();
-    let p = TwoAbcProblem { rows };
-    let Abc([kd, a, b, c, ior]) = abc(name);
-    let best = [0.01, 1.0, 100.0]
-        .iter()
-        .map(|m| {
-            let x0 = [
-                kd.max(1e-6),
-                a,
-                b,
-                c,
-                0.1 * a,
-                b * m,
-                c,
-                (ior - 1.0).max(1e-3),
-            ]
-            .map(f64::ln);
-            levenberg_marquardt(&p, &x0, Robust::None, &Limits::default())
-        })
-        .min_by(|u, v| u.cost.total_cmp(&v.cost))
-        .unwrap();
-    TwoAbc::from_x(&best.x)
-}
-
-/// The prototype's gradient against central differences of its f_r (hand-made model, so its
-/// derivatives are checked before any number from it is read).
-#[test]
-fn two_abc_lobes_gradient_matches_finite_differences() {
-    let x = [-1.5, 2.0, 6.0, 0.3, -0.5, 2.0, -0.2, -0.4];
-    let g = Geometry::from_angles(0.5, 0.0, 0.45, 2.9);
-    let mut d = [0.0; 8];
-    TwoAbc::from_x(&x).eval(&g, Some(&mut d));
-    for k in 0..8 {
-        let h = 1e-6;
-        let (mut up, mut dn) = (x, x);
-        up[k] += h;
-        dn[k] -= h;
-        let fd =
-            (TwoAbc::from_x(&up).eval(&g, None) - TwoAbc::from_x(&dn).eval(&g, None)) / (2.0 * h);
-        assert!(
-            (fd - d[k]).abs() <= 1e-6 * fd.abs().max(1e-3),
-            "variable {k}: {} against {fd}",
-            d[k]
-        );
-    }
-}
-
-/// Would a two-lobe ABC rung give one fit at or below ABC on both halves? [`TwoAbc`] fitted
-/// ([`fit_two_abc`]) to the goniometer grid and to 30,000 uniform plus 1,500 near-mirror draws
-/// (the sampling where the ladder's one fit is closest, 8 / 4). `cargo test --release --test
-/// truth two_abc -- --ignored --nocapture`.
-#[test]
-#[ignore]
-fn two_abc_lobes_prototype() {
-    let set = test_set(22);
-    let mix: Vec<[f64; 4]> = draws(7, 30_000, 1_500)
-        .into_iter()
-        .map(|(a, _)| a)
-        .collect();
-    for (label, dirs, symmetric) in [
-        ("goniometer", goniometer(), false),
-        ("uniform + 1.5k near-mirror", mix, true),
-    ] {
-        let (mut wins, mut both) = ([0; 2], 0);
-        for name in MATERIALS {
-            let (net, ds) = training(name, &dirs, symmetric);
-            let truth: Vec<f64> = set.iter().map(|(a, _)| net.eval_symmetric(*a)[1]).collect();
-            let m = fit_two_abc(&ds, name);
-            let e = log_error(&set, &truth, &|g| m.eval(g, None));
-            let published = abc(name);
-            let e_abc = log_error(&set, &truth, &|g| published.brdf(g));
-            wins[0] += usize::from(e.0 <= e_abc.0);
-            wins[1] += usize::from(e.1 <= e_abc.1);
-            both += usize::from(e.0 <= e_abc.0 && e.1 <= e_abc.1);
-            println!(
-                "{label}, {name}: two ABC lobes {:.4} / {:.4}, ABC 2012 {:.4} / {:.4}; {:?}",
-                e.0,
-                e.1,
-                e_abc.0,
-                e_abc.1,
-                m.0.map(|v| format!("{v:.4e}"))
-            );
-        }
-        println!(
-            "{label}: two ABC lobes at or below ABC on {} of 8 (whole set), {} (uniform half), {both} (both)",
-            wins[0], wins[1]
-        );
     }
 }
 
