@@ -1,10 +1,10 @@
-//! Input size limits: every reader checks a file's size against the limit of its kind before
+//! Reading input files: every reader checks a file's size against the limit of its kind before
 //! reading, and reads at most limit + 1 bytes, so a huge file or a device (`/dev/zero`, whose
-//! metadata length is 0) stops early with an error instead of exhausting memory.
+//! metadata length is 0) stops early with an error instead of exhausting memory. A failure is
+//! a [`DataError`]: the file, the line, what is wrong and the fix.
 
-use crate::data::DataError;
 use std::io::Read;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// The kinds of input brdfit reads, each with its own default size limit.
@@ -91,7 +91,7 @@ pub struct Limited<R> {
 }
 
 /// The payload of the I/O error a [`Limited`] reader returns past the limit;
-/// [`crate::data::io_error`] turns it into the size-limit error.
+/// [`io_error`] turns it into the size-limit error.
 #[derive(Debug)]
 pub struct TooLarge {
     /// The file.
@@ -150,7 +150,7 @@ impl Limited<std::fs::File> {
 /// file whose size already exceeds the limit; the reader returned fails past the limit
 /// (a file that grew, or a device such as `/dev/zero`).
 pub fn open_limited(path: &Path, kind: Input) -> Result<Limited<std::fs::File>, DataError> {
-    let meta = std::fs::metadata(path).map_err(|e| crate::data::io_error(path, &e))?;
+    let meta = std::fs::metadata(path).map_err(|e| io_error(path, &e))?;
     if meta.is_dir() {
         return Err(DataError::new(
             path,
@@ -162,7 +162,7 @@ pub fn open_limited(path: &Path, kind: Input) -> Result<Limited<std::fs::File>, 
     if meta.len() > limit(kind) {
         return Err(too_large(path, kind, Some(meta.len())));
     }
-    let f = std::fs::File::open(path).map_err(|e| crate::data::io_error(path, &e))?;
+    let f = std::fs::File::open(path).map_err(|e| io_error(path, &e))?;
     Ok(Limited {
         inner: f,
         left: limit(kind),
@@ -176,7 +176,7 @@ pub fn open_limited(path: &Path, kind: Input) -> Result<Limited<std::fs::File>, 
 /// such as `/dev/zero` costs about the limit in memory.
 pub fn read_limited(path: &Path, kind: Input) -> Result<Vec<u8>, DataError> {
     let mut r = open_limited(path, kind)?;
-    let io = |e: std::io::Error| crate::data::io_error(path, &e);
+    let io = |e: std::io::Error| io_error(path, &e);
     let most = usize::try_from(limit(kind)).unwrap_or(usize::MAX - 1) + 1;
     let size = r.file().metadata().map_err(io)?.len() as usize;
     let mut bytes = Vec::with_capacity(size.min(most).max(1 << 12));
@@ -230,6 +230,59 @@ pub fn read_to_string_limited(path: &Path, kind: Input) -> Result<String, DataEr
             )
         }
     })
+}
+
+/// A loader or writer error: the file, the line where known, what is wrong and how to fix it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{}{}: {message}\n  fix: {fix}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+pub struct DataError {
+    /// The file.
+    pub path: PathBuf,
+    /// 1-based line number, where the problem is on one line.
+    pub line: Option<u64>,
+    /// What is wrong.
+    pub message: String,
+    /// What the user should do.
+    pub fix: String,
+    /// The setting that fix changes, if it is one.
+    pub setting: Option<crate::setting::Setting>,
+}
+
+impl DataError {
+    /// New error for `path` at optional `line`.
+    pub fn new(
+        path: &Path,
+        line: Option<u64>,
+        message: impl Into<String>,
+        fix: impl Into<String>,
+    ) -> Self {
+        DataError {
+            path: path.to_path_buf(),
+            line,
+            message: message.into(),
+            fix: fix.into(),
+            setting: None,
+        }
+    }
+
+    /// The same error, naming the setting its fix changes.
+    pub fn with_setting(mut self, s: crate::setting::Setting) -> Self {
+        self.setting = Some(s);
+        self
+    }
+}
+
+/// An I/O error on `path`, with a fix.
+pub fn io_error(path: &Path, e: &std::io::Error) -> DataError {
+    if let Some(t) = e.get_ref().and_then(|i| i.downcast_ref::<TooLarge>()) {
+        return t.to_error();
+    }
+    let fix = match e.kind() {
+        std::io::ErrorKind::NotFound => "check the path; the file does not exist",
+        std::io::ErrorKind::PermissionDenied => "check the file's permissions (chmod +r)",
+        _ => "check that the file is readable",
+    };
+    DataError::new(path, None, format!("cannot read: {e}"), fix)
 }
 
 #[cfg(test)]

@@ -19,49 +19,10 @@ use std::collections::BTreeMap;
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::fmt;
 use std::io::Read;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
+pub use crate::input::{DataError, io_error};
 pub use csvfmt::{load_directions, write_csv, write_csv_to};
-
-/// A loader or writer error: the file, the line where known, what is wrong and how to fix it.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{}{}: {message}\n  fix: {fix}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
-pub struct DataError {
-    /// The file.
-    pub path: PathBuf,
-    /// 1-based line number, where the problem is on one line.
-    pub line: Option<u64>,
-    /// What is wrong.
-    pub message: String,
-    /// What the user should do.
-    pub fix: String,
-    /// The setting that fix changes, if it is one.
-    pub setting: Option<crate::setting::Setting>,
-}
-
-impl DataError {
-    /// New error for `path` at optional `line`.
-    pub fn new(
-        path: &Path,
-        line: Option<u64>,
-        message: impl Into<String>,
-        fix: impl Into<String>,
-    ) -> Self {
-        DataError {
-            path: path.to_path_buf(),
-            line,
-            message: message.into(),
-            fix: fix.into(),
-            setting: None,
-        }
-    }
-
-    /// The same error, naming the setting its fix changes.
-    pub fn with_setting(mut self, s: crate::setting::Setting) -> Self {
-        self.setting = Some(s);
-        self
-    }
-}
 
 /// What the values in a file measure.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -766,22 +727,6 @@ pub fn detect_format(path: &Path, head: &[u8]) -> Result<Format, DataError> {
 /// that say what to do.
 pub(crate) fn open(path: &Path) -> Result<crate::input::Limited<std::fs::File>, DataError> {
     crate::input::open_limited(path, crate::input::Input::Data)
-}
-
-/// An I/O error on `path`, with a fix.
-pub fn io_error(path: &Path, e: &std::io::Error) -> DataError {
-    if let Some(t) = e
-        .get_ref()
-        .and_then(|i| i.downcast_ref::<crate::input::TooLarge>())
-    {
-        return t.to_error();
-    }
-    let fix = match e.kind() {
-        std::io::ErrorKind::NotFound => "check the path; the file does not exist",
-        std::io::ErrorKind::PermissionDenied => "check the file's permissions (chmod +r)",
-        _ => "check that the file is readable",
-    };
-    DataError::new(path, None, format!("cannot read: {e}"), fix)
 }
 
 /// Load a data file in any supported format.
