@@ -45,6 +45,7 @@ pub mod model;
 pub mod input;
 pub mod output;
 pub mod plot;
+mod png;
 pub mod render;
 pub mod report;
 // Public for the binary and the integration tests (separate crates), not library API.

@@ -18,6 +18,7 @@
 //! Blinn's `c3` equals the GGX roughness α of modern renderers: D3 = π c3² D_GGX.
 
 pub mod albedo;
+pub mod fitfile;
 mod ggx_smith;
 mod ggx_smith_2;
 mod lambert;

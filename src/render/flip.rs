@@ -274,6 +274,33 @@ struct Planes {
     features: Vec<[f32; 2]>,
 }
 
+/// Row `y` of the image from column x0 − r to x0 + cw − 1 + r (clamped to the `w`-wide image),
+/// one channel each: Y, Cx, Cz and the normalised luminance the features read.
+#[inline(always)]
+fn padded_row(
+    img: &Patch,
+    y: usize,
+    (x0, cw): (usize, usize),
+    r: usize,
+    w: usize,
+) -> [Vec<f32>; 4] {
+    let mut p = [
+        Vec::with_capacity(cw + 2 * r),
+        Vec::with_capacity(cw + 2 * r),
+        Vec::with_capacity(cw + 2 * r),
+        Vec::with_capacity(cw + 2 * r),
+    ];
+    for j in 0..cw + 2 * r {
+        let x = (x0 as isize + j as isize - r as isize).clamp(0, w as isize - 1) as usize;
+        let c = img.at(x, y);
+        p[0].push(c[0]);
+        p[1].push(c[1]);
+        p[2].push(c[2]);
+        p[3].push(c[0] * (1.0f32 / 116.0) + 16.0f32 / 116.0);
+    }
+    p
+}
+
 /// [`Planes`] of the window `win` (x0, y0, x1, y1 inclusive; row by row) of a `w`×`h` image
 /// whose YCxCz `img` covers the window widened by the filters' reach (clipped to the image).
 /// Where `need` (one flag a window pixel, row by row) is given and false, the pixel's colour
@@ -298,25 +325,7 @@ fn planes(
     let rows = y1 + 1 - y0;
     let r = f.reach();
     let clampy = |y: isize| y.clamp(0, h as isize - 1) as usize;
-    // A row of the image from column x0 − r to x1 + r (clamped to the image), one channel
-    // each: Y, Cx, Cz and the normalised luminance the features read.
-    let padded = |y: usize| {
-        let mut p = [
-            Vec::with_capacity(cw + 2 * r),
-            Vec::with_capacity(cw + 2 * r),
-            Vec::with_capacity(cw + 2 * r),
-            Vec::with_capacity(cw + 2 * r),
-        ];
-        for j in 0..cw + 2 * r {
-            let x = (x0 as isize + j as isize - r as isize).clamp(0, w as isize - 1) as usize;
-            let c = img.at(x, y);
-            p[0].push(c[0]);
-            p[1].push(c[1]);
-            p[2].push(c[2]);
-            p[3].push(c[0] * (1.0f32 / 116.0) + 16.0f32 / 116.0);
-        }
-        p
-    };
+    let padded = |y: usize| padded_row(img, y, (x0, cw), r, w);
     // Colour: x pass on the rows the y pass reads, then the y pass.
     let rc = f.ycx.len() / 2;
     let (ry0, ry1) = (

@@ -15,6 +15,7 @@
 //! lookup returns the sample. A cell with no sample that near is marked and takes residual 0
 //! (the model), and the share of such cells is reported.
 
+use super::gonio::GonioGrid;
 use crate::data::Dataset;
 use crate::model::{Geometry, Model};
 use std::f64::consts::FRAC_PI_2;
@@ -69,19 +70,19 @@ pub enum Lookup {
     /// f = f_fill + residual (the cells hold f_data − f_fill).
     Residual,
     /// f = (f_fill + δ)·e^v − δ, at least 0 (the cells hold v = ln((f_data + δ)/(f_fill + δ)),
-    /// see [`crate::render::reconstruct`]).
+    /// the reconstruction of a measurement as a BRDF).
     Ratio {
         /// The floor δ added to both f_data and f_fill (f_r units).
         delta: f64,
     },
     /// f = (f_fill + δ)·e^v − δ, at least 0, with v interpolated on a goniometer's own grid
-    /// (see [`crate::render::reconstruct::GonioGrid`]); the cells hold the table's log ratios
+    /// (see [`GonioGrid`]); the cells hold the table's log ratios
     /// (for `filled` and the measured share only).
     Grid {
         /// The floor δ added to both f_data and f_fill (f_r units).
         delta: f64,
         /// The grid of log ratios.
-        grid: std::sync::Arc<crate::render::reconstruct::GonioGrid>,
+        grid: std::sync::Arc<GonioGrid>,
     },
     /// An exact BRDF evaluated at every lookup (a truth such as a Neural-BRDF network); the
     /// cells are unused.
