@@ -18,9 +18,9 @@ pub enum Grid {
     /// The plane of incidence for each listed θi (degrees): θo = 0…89° in 1° steps on both
     /// sides (φo = 0° and 180°), θo = 0 once.
     Plane(Vec<f64>),
-    /// A goniometer's grid, that of the Neural-BRDF and RGL tables in `../shared/data`:
-    /// θi = 10…80° in 10° steps, φi = 0, θo = 0…85° in 1° steps, φo = 0…345° in 15° steps
-    /// (16,512 configurations, θi slowest, φo fastest).
+    /// A goniometer's grid, that of the Neural-BRDF tables (github.com/asztr/Neural-BRDF) and
+    /// of RGL's material database: θi = 10…80° in 10° steps, φi = 0, θo = 0…85° in 1° steps,
+    /// φo = 0…345° in 15° steps (16,512 configurations, θi slowest, φo fastest).
     Goniometer,
     /// The cell centres of a MERL 90 × 90 × 180 table (Matusik et al. 2003; see
     /// [`crate::data::merl`]) whose light and eye are both above the horizon, in cell order.

@@ -10,12 +10,71 @@ const FIX_VARS: &str = "the header must end with a line like \
 pub(crate) fn load_astm(path: &Path, policy: NegativePolicy) -> Result<Dataset, DataError> {
     let text = read_text(path)?;
     let mut lines = text.lines().enumerate().map(|(i, l)| (i as u64 + 1, l));
+    let header = read_header(path, &mut lines)?;
+    let Some((vars_line, names)) = header.vars else {
+        return Err(DataError::new(
+            path,
+            None,
+            "no VARS line in the ASTM header",
+            FIX_VARS,
+        ));
+    };
+    let quantity = quantity(path, header.meas.as_deref())?;
+    check_vars(path, vars_line, &names)?;
+    let channels: Vec<(String, Option<f64>)> = names[4..]
+        .iter()
+        .map(|n| {
+            let wl = n.strip_suffix("nm").and_then(|w| w.parse::<f64>().ok());
+            let name = if names.len() == 5 && wl.is_none() {
+                String::new()
+            } else {
+                n.clone()
+            };
+            (name, wl)
+        })
+        .collect();
+    let mut ds = Dataset::new(quantity, channels);
+    ds.meta.comments = header.comments;
+    ds.meta.material = header.material;
+    let ds = read_rows(path, policy, ds, &names, lines)?;
+    if let Some((ln, n)) = header.num_points
+        && n != ds.len()
+    {
+        return Err(DataError::new(
+            path,
+            Some(ln),
+            format!("NUM_POINTS says {n} but the file holds {} rows", ds.len()),
+            "the file may be truncated: fetch it again, or correct NUM_POINTS",
+        ));
+    }
+    Ok(ds)
+}
+
+/// What the header lines say, read up to and including the `VARS` line.
+struct Header {
+    /// The header lines as comments (the first 1,000, each cut at 500 characters).
+    comments: Vec<String>,
+    /// `SAMPLE_NAME`.
+    material: Option<String>,
+    /// `NUM_POINTS` and its line.
+    num_points: Option<(u64, usize)>,
+    /// `MEAS_NAME`.
+    meas: Option<String>,
+    /// The `VARS` line's number and its names, lower case.
+    vars: Option<(u64, Vec<String>)>,
+}
+
+/// Read the header from `lines` (numbered from 1), stopping after the `VARS` line.
+fn read_header<'a>(
+    path: &Path,
+    lines: &mut impl Iterator<Item = (u64, &'a str)>,
+) -> Result<Header, DataError> {
     let mut comments = Vec::new();
     let mut material = None;
     let mut num_points: Option<(u64, usize)> = None;
     let mut meas: Option<String> = None;
     let mut vars: Option<(u64, Vec<String>)> = None;
-    for (ln, raw) in lines.by_ref() {
+    for (ln, raw) in lines {
         let l = raw.trim();
         if l.is_empty() || l.starts_with('#') {
             continue;
@@ -64,28 +123,33 @@ pub(crate) fn load_astm(path: &Path, policy: NegativePolicy) -> Result<Dataset, 
             comments.push(l.chars().take(500).collect::<String>());
         }
     }
-    let Some((vars_line, names)) = vars else {
-        return Err(DataError::new(
+    Ok(Header {
+        comments,
+        material,
+        num_points,
+        meas,
+        vars,
+    })
+}
+
+/// The quantity `MEAS_NAME` names (f_r when there is none).
+fn quantity(path: &Path, meas: Option<&str>) -> Result<Quantity, DataError> {
+    match meas.map(|m| m.to_ascii_uppercase()) {
+        None => Ok(Quantity::Brdf),
+        Some(m) if m == "BRDF" => Ok(Quantity::Brdf),
+        Some(m) if m == "BRDF*COS" || m == "CCBRDF" => Ok(Quantity::BrdfCos),
+        Some(m) => Err(DataError::new(
             path,
             None,
-            "no VARS line in the ASTM header",
-            FIX_VARS,
-        ));
-    };
-    let quantity = match meas.as_deref().map(|m| m.to_ascii_uppercase()) {
-        None => Quantity::Brdf,
-        Some(m) if m == "BRDF" => Quantity::Brdf,
-        Some(m) if m == "BRDF*COS" || m == "CCBRDF" => Quantity::BrdfCos,
-        Some(m) => {
-            return Err(DataError::new(
-                path,
-                None,
-                format!("MEAS_NAME '{m}' is not a quantity brdfit reads"),
-                "brdfit reads MEAS_NAME BRDF (f_r) or BRDF*COS; convert the file to brdfit CSV \
-                 and name the value columns brdf, brdf_cos or rfactor",
-            ));
-        }
-    };
+            format!("MEAS_NAME '{m}' is not a quantity brdfit reads"),
+            "brdfit reads MEAS_NAME BRDF (f_r) or BRDF*COS; convert the file to brdfit CSV \
+             and name the value columns brdf, brdf_cos or rfactor",
+        )),
+    }
+}
+
+/// Check the `VARS` names (on line `vars_line`): the four angles, then at least one value.
+fn check_vars(path: &Path, vars_line: u64, names: &[String]) -> Result<(), DataError> {
     const ANGLES: [[&str; 2]; 4] = [
         ["theta_i", "theta_i"],
         ["phi_i", "phi_i"],
@@ -118,21 +182,17 @@ pub(crate) fn load_astm(path: &Path, policy: NegativePolicy) -> Result<Dataset, 
             ));
         }
     }
-    let channels: Vec<(String, Option<f64>)> = names[4..]
-        .iter()
-        .map(|n| {
-            let wl = n.strip_suffix("nm").and_then(|w| w.parse::<f64>().ok());
-            let name = if names.len() == 5 && wl.is_none() {
-                String::new()
-            } else {
-                n.clone()
-            };
-            (name, wl)
-        })
-        .collect();
-    let mut ds = Dataset::new(quantity, channels);
-    ds.meta.comments = comments;
-    ds.meta.material = material;
+    Ok(())
+}
+
+/// The data rows of `lines` (after the header) into `ds`, one field per name of `names`.
+fn read_rows<'a>(
+    path: &Path,
+    policy: NegativePolicy,
+    ds: Dataset,
+    names: &[String],
+    lines: impl Iterator<Item = (u64, &'a str)>,
+) -> Result<Dataset, DataError> {
     let nv = names.len() - 4;
     let mut sink = RowSink::new(path, policy, ds);
     let mut vals = vec![0.0; nv];
@@ -163,16 +223,5 @@ pub(crate) fn load_astm(path: &Path, policy: NegativePolicy) -> Result<Dataset, 
         }
         sink.push(ln, a, &vals, None)?;
     }
-    let ds = sink.finish()?;
-    if let Some((ln, n)) = num_points
-        && n != ds.len()
-    {
-        return Err(DataError::new(
-            path,
-            Some(ln),
-            format!("NUM_POINTS says {n} but the file holds {} rows", ds.len()),
-            "the file may be truncated: fetch it again, or correct NUM_POINTS",
-        ));
-    }
-    Ok(ds)
+    sink.finish()
 }
