@@ -50,8 +50,8 @@ fn angles_of(v: [f64; 3]) -> (f64, f64) {
 /// Rusinkiewicz half/difference angles → (θi, φi, θo, φo), isotropic (φh = 0 gives φi, φo
 /// relative to the half vector's azimuth).
 pub fn half_diff_to_std(theta_h: f64, phi_h: f64, theta_d: f64, phi_d: f64) -> [f64; 4] {
-    let h = crate::model::direction(theta_h, phi_h);
-    let d = crate::model::direction(theta_d, phi_d);
+    let h = super::direction(theta_h, phi_h);
+    let d = super::direction(theta_d, phi_d);
     let wi = rot_z(rot_y(d, theta_h), phi_h);
     let k = 2.0 * (wi[0] * h[0] + wi[1] * h[1] + wi[2] * h[2]);
     let wo = [k * h[0] - wi[0], k * h[1] - wi[1], k * h[2] - wi[2]];
@@ -62,8 +62,8 @@ pub fn half_diff_to_std(theta_h: f64, phi_h: f64, theta_d: f64, phi_d: f64) -> [
 
 /// (θi, φi, θo, φo) → (θh, φh, θd, φd).
 pub fn std_to_half_diff(a: [f64; 4]) -> [f64; 4] {
-    let wi = crate::model::direction(a[0], a[1]);
-    let wo = crate::model::direction(a[2], a[3]);
+    let wi = super::direction(a[0], a[1]);
+    let wo = super::direction(a[2], a[3]);
     let s = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
     let len = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt().max(1e-300);
     let h = [s[0] / len, s[1] / len, s[2] / len];
@@ -295,12 +295,12 @@ mod tests {
             let hd = std_to_half_diff(a);
             let b = half_diff_to_std(hd[0], hd[1], hd[2], hd[3]);
             let (wi, wo) = (
-                crate::model::direction(a[0], a[1]),
-                crate::model::direction(a[2], a[3]),
+                crate::data::direction(a[0], a[1]),
+                crate::data::direction(a[2], a[3]),
             );
             let (vi, vo) = (
-                crate::model::direction(b[0], b[1]),
-                crate::model::direction(b[2], b[3]),
+                crate::data::direction(b[0], b[1]),
+                crate::data::direction(b[2], b[3]),
             );
             for k in 0..3 {
                 assert!((wi[k] - vi[k]).abs() < 1e-12 && (wo[k] - vo[k]).abs() < 1e-12);

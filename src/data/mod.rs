@@ -24,6 +24,13 @@ use std::path::Path;
 pub use crate::input::{DataError, io_error};
 pub use csvfmt::{load_directions, write_csv, write_csv_to};
 
+/// Unit direction for polar angle `theta` and azimuth `phi` (radians), N = +z.
+pub fn direction(theta: f64, phi: f64) -> [f64; 3] {
+    let (st, ct) = theta.sin_cos();
+    let (sp, cp) = phi.sin_cos();
+    [st * cp, st * sp, ct]
+}
+
 /// What the values in a file measure.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Quantity {

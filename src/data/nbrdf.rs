@@ -203,7 +203,7 @@ impl Nbrdf {
             return [0.0; 3];
         }
         let [th, _, td, pd] = super::merl::std_to_half_diff(a);
-        let d = crate::model::direction(td, pd);
+        let d = super::direction(td, pd);
         let mut x = vec![th.sin(), 0.0, th.cos(), d[0], d[1], d[2]];
         for (k, (w, b)) in self.layers.iter().enumerate() {
             let mut y = b.clone();

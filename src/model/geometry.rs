@@ -1,12 +1,7 @@
 //! The geometry of one light/eye configuration: the dot products every model evaluates from,
 //! and Blinn's masking term.
 
-/// Unit direction for polar angle `theta` and azimuth `phi` (radians), N = +z.
-pub fn direction(theta: f64, phi: f64) -> [f64; 3] {
-    let (st, ct) = theta.sin_cos();
-    let (sp, cp) = phi.sin_cos();
-    [st * cp, st * sp, ct]
-}
+pub use crate::data::direction;
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
