@@ -1,6 +1,7 @@
 //! Stage 4 of a fit: the checks at return (first-order conditions, absurd values, random-start
 //! verification).
 
+use super::dispatch;
 use super::setup::Layout;
 use super::solve::Search;
 use super::*;
@@ -144,7 +145,7 @@ pub(super) fn verify(
         .collect();
     let mut sols: Vec<Solution> = starts
         .par_iter()
-        .map(|x0| lsq::solve(work, x0, opts.method, Robust::None, limits))
+        .map(|x0| dispatch::solve(work, x0, opts.method, Robust::None, limits))
         .collect();
     let mut evaluations: usize = sols.iter().map(|s| s.evaluations).sum();
     sols.sort_by(|a, b| a.cost.total_cmp(&b.cost));
@@ -170,7 +171,7 @@ pub(super) fn verify(
                         };
                     }
                 }
-                lsq::solve(full, &s.x, opts.method, robust, &opts.limits)
+                dispatch::solve(full, &s.x, opts.method, robust, &opts.limits)
             })
             .collect()
     };

@@ -20,6 +20,7 @@
 
 mod argmin_peer;
 mod checks;
+mod dispatch;
 mod fitfile;
 mod format;
 mod init;

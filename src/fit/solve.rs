@@ -1,6 +1,7 @@
 //! Stage 3 of a fit: the local method from the initialisation's candidates, on a subsample
 //! and then on every row, and the distinct basins polished.
 
+use super::dispatch;
 use super::init::global_init;
 use super::setup::Layout;
 use super::*;
@@ -42,7 +43,8 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
     } else {
         polish_limits
     };
-    let refine = |x0: &Vec<f64>| lsq::solve(work, x0, opts.method, Robust::None, &refine_limits);
+    let refine =
+        |x0: &Vec<f64>| dispatch::solve(work, x0, opts.method, Robust::None, &refine_limits);
     let start = || start_vector(full, &lay.specs, &lay.names, &opts.start);
     // The grid's subsample is drawn from the local stage's (the same largest values, no
     // second pass over every row). A start given with the global initialisation (or the start
@@ -85,12 +87,12 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
             .par_iter()
             .map(|s| match &mid {
                 Some(mp) => {
-                    let m = lsq::solve(mp, &s.x, opts.method, robust, &mid_limits);
-                    let f = lsq::solve(full, &m.x, opts.method, robust, &polish_limits);
+                    let m = dispatch::solve(mp, &s.x, opts.method, robust, &mid_limits);
+                    let f = dispatch::solve(full, &m.x, opts.method, robust, &polish_limits);
                     (f, m.iterations, m.evaluations)
                 }
                 None => (
-                    lsq::solve(full, &s.x, opts.method, robust, &polish_limits),
+                    dispatch::solve(full, &s.x, opts.method, robust, &polish_limits),
                     0,
                     0,
                 ),
@@ -112,7 +114,7 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
             for x0 in &candidates {
                 let c0 = lsq::cost(full, x0, robust).unwrap_or(f64::INFINITY);
                 if c0 < best.cost {
-                    let s = lsq::solve(full, x0, opts.method, robust, &polish_limits);
+                    let s = dispatch::solve(full, x0, opts.method, robust, &polish_limits);
                     iterations += s.iterations;
                     evaluations += s.evaluations;
                     if s.cost < best.cost {
