@@ -9,7 +9,9 @@
 //! not depend on the instruction set; the entries are compiled for AVX-512 and AVX2 as well and
 //! picked at run time (the `multiversion` crate).
 
-use super::{Loss, Rows, TsD3};
+use super::lane_terms::{TsD3, fresnel};
+use super::loss::Loss;
+use super::rows::Rows;
 use crate::fit::lsq::Robust;
 use crate::lanes::{self, LANES};
 use crate::model::{Distribution, MAX_PARAMS, Model, ModelKind};
@@ -675,47 +677,11 @@ impl<const LOSS: u8, const JAC: bool, const ROB: bool> Block for AbcBlock<LOSS, 
     }
 }
 
-/// Exact Fresnel reflectance of an index `n` at cos θ = `eh` and its n-derivative, without
-/// branches (`n2m1` = n² − 1): F = ½ (g−c)²/(g+c)² [1 + (c(g+c)−1)²/(c(g−c)+1)²],
-/// g = √(n² + c² − 1) (Blinn 1977, eq. 5; Cook & Torrance 1982). The formulas of
-/// `model::fresnel_dn` with the divisions shared; where it returns early the selects give the
-/// same.
-#[inline(always)]
-pub(super) fn fresnel(n: f64, n2m1: f64, eh: f64) -> (f64, f64) {
-    let cc = eh.clamp(0.0, 1.0);
-    let gg = (n2m1 + cc * cc).max(0.0).sqrt();
-    let gp = gg + cc;
-    let ok_f = gp > 0.0;
-    let gp = if ok_f { gp } else { 1.0 };
-    let gm = gg - cc;
-    let vv = cc * gm + 1.0;
-    // 1/(g+c), 1/(c(g−c)+1) and 1/g from one division (g = 0 only at n = 1, c = 0).
-    let ok_g = gg > 0.0;
-    let g1 = if ok_g { gg } else { 1.0 };
-    let inv = 1.0 / (gp * vv * g1);
-    let igp = vv * g1 * inv;
-    let iv = gp * g1 * inv;
-    let qf = gm * igp;
-    let a = qf * qf;
-    let t = (cc * gp - 1.0) * iv;
-    let b = t * t;
-    let f = if ok_f { 0.5 * a * (1.0 + b) } else { 1.0 };
-    // dA/dg = 4c(g−c)/(g+c)³, dB/dg = 4c(1−c²)u/v³, dg/dn = n/g.
-    let da = 4.0 * cc * qf * igp * igp;
-    let db = 4.0 * cc * (1.0 - cc * cc) * t * iv * iv;
-    let dn_dg = if ok_g { n * gp * vv * inv } else { 0.0 };
-    let df = if ok_f {
-        0.5 * (da * (1.0 + b) + a * db) * dn_dg
-    } else {
-        0.0
-    };
-    (f, df)
-}
-
 #[cfg(test)]
 mod tests {
-    use super::super::{Row, kernel_rows_any};
+    use super::super::passes::kernel_rows_any;
     use super::*;
+    use crate::fit::problem::Row;
     use crate::model::Geometry;
     use rand::{Rng, SeedableRng};
 
