@@ -2,9 +2,13 @@
 //! verification).
 
 use super::dispatch;
+use super::lsq::{self, Limits, Problem, Robust, Solution};
+use super::options::FitOptions;
+use super::problem::BrdfProblem;
+use super::result::{KKT_TOLERANCE, SAME_MINIMUM, Verification};
 use super::setup::Layout;
-use super::solve::Search;
-use super::*;
+use super::solve::{Search, random_start};
+use crate::model::{ParamSpec, readable};
 
 /// What the checks at return found.
 pub(super) struct Checks {

@@ -3,8 +3,11 @@
 
 use super::dispatch;
 use super::init::global_init;
+use super::lsq::{self, Limits, Problem, Robust, Solution};
+use super::options::{FitOptions, RobustKind};
+use super::problem::{BrdfProblem, Slot};
 use super::setup::Layout;
-use super::*;
+use crate::model::ParamSpec;
 
 /// What the search found and what it cost.
 pub(super) struct Search {
@@ -31,7 +34,7 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
     let sub = (full.rows.len() > per * full.layout.len())
         .then(|| mid.as_ref().unwrap_or(full).subsample(per));
     let work = sub.as_ref().unwrap_or(full);
-    // On every row the data's resolution ends the polish (see [`RESOLUTION`]); the same on a
+    // On every row the data's resolution ends the polish (see [`super::options::RESOLUTION`]); the same on a
     // small file's candidates, which are refined on every row and not polished again. On a
     // subsample only the basin matters: the polish on every row sets the final accuracy.
     let polish_limits = polish_limits(full, opts);
@@ -136,20 +139,6 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
         evaluations,
     }
 }
-
-/// The fraction of one standard error's rise in the cost (σ̂²/2 = S/(m − p) for the cost S =
-/// ½ Σ r² over m rows and p free variables) by which the polish's last
-/// [`lsq::RESOLUTION_STEPS`] steps together must lower the cost for it to go on: below that
-/// the steps move the parameters by a small fraction of a standard error (a cost ε·S/(m − p)
-/// above the minimum is √ε standard errors from it). On the 1,854 fits of `--model all` over
-/// the bundled and test files the parameters ended within 0.005 standard errors (those of the
-/// full polish) of where a polish to ftol = 1e-14 ends, their cost within a relative 1e-8 of
-/// that polish's, but for one: blinn-aluminium's GGX–Smith-2, whose two lobes the data do not
-/// tell apart, ended at the same cost at another point of its flat valley. The fits took
-/// 2.5 % fewer evaluations in all and 11 % fewer on MERL aluminium, a metal whose weakly
-/// determined index n makes the last steps crawl (on its green channel TS-d3's polish took 29
-/// steps, not 37; TS-D2's 22, not 36).
-pub const RESOLUTION: f64 = 1e-6;
 
 /// The limits of a polish on every row of `full`: `opts.limits` with the data's resolution
 /// ([`FitOptions::resolution`] of S/(m − p), relative to the cost).

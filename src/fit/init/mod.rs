@@ -10,7 +10,7 @@ mod score;
 mod tables;
 mod two_lobe;
 
-use super::FitOptions;
+use super::options::FitOptions;
 use super::problem::{BrdfProblem, Slot};
 use crate::model::{ModelKind, ParamSpec, Role};
 use grid::{COARSE_ABOVE, grid_minima, search_grid};

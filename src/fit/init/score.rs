@@ -10,7 +10,7 @@ use super::linear::{
 };
 use super::nnls::linear_solve;
 use super::tables::{LobeTables, TsFactors, TwoLobeGram, basis_free_sums, basis_sums};
-use crate::fit::FitOptions;
+use crate::fit::options::FitOptions;
 use crate::fit::problem::{self, BrdfProblem, Loss, Slot};
 use crate::model::{Distribution, MAX_PARAMS, ModelKind, ParamSpec, Role};
 use std::ops::Range;

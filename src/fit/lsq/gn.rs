@@ -1,10 +1,11 @@
 //! Gauss–Newton with a bounded, NaN-safe Armijo backtracking line search, with the same
 //! active set and projection as Levenberg–Marquardt.
 
+use super::options::Limits;
 use super::pass::{cost, normal_equations};
 use super::problem::failed;
+use super::problem::{Problem, Robust, Solution};
 use super::step::{active_set, damped_solve, gradient_small, project, scale_diag};
-use super::{Limits, Problem, Robust, Solution};
 
 /// Gauss–Newton with a bounded Armijo line search (see the module documentation).
 pub fn gauss_newton<P: Problem>(p: &P, x0: &[f64], robust: Robust, limits: &Limits) -> Solution {

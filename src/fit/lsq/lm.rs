@@ -1,10 +1,11 @@
 //! Levenberg–Marquardt, bound-constrained as a projected LM with an active set (see the
 //! module documentation of [`crate::fit::lsq`]).
 
+use super::options::{Limits, RESOLUTION_STEPS};
 use super::pass::normal_equations;
 use super::problem::failed;
+use super::problem::{Normal, Problem, Robust, Solution};
 use super::step::{active_set, damped_solve, gradient_small, project, scale_diag};
-use super::{Limits, Normal, Problem, RESOLUTION_STEPS, Robust, Solution};
 
 /// The largest factor by which an undershooting step is extended (see [`next_gain`]).
 const MAX_GAIN: f64 = 4.0;

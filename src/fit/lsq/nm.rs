@@ -1,8 +1,9 @@
 //! The derivative-free Nelder–Mead simplex method on the cost, projected onto the box.
 
+use super::options::Limits;
 use super::pass::cost;
+use super::problem::{Problem, Robust, Solution};
 use super::step::project;
-use super::{Limits, Problem, Robust, Solution};
 
 /// Nelder–Mead on the cost (see the module documentation).
 pub fn nelder_mead<P: Problem>(p: &P, x0: &[f64], robust: Robust, limits: &Limits) -> Solution {

@@ -2,7 +2,7 @@
 //! summed over fixed chunks in chunk order (in parallel where the pass is long enough), so the
 //! result is the same bytes whatever the thread count.
 
-use super::{Normal, Problem, Robust};
+use super::problem::{Normal, Problem, Robust};
 use rayon::prelude::*;
 
 /// The most residuals in a chunk of a pass.

@@ -1,7 +1,7 @@
 //! The pieces every step of the bound-constrained methods uses: the damped Cholesky solve,
 //! the box with its active set and projection, Marquardt's scaling and the gradient test.
 
-use super::Normal;
+use super::problem::Normal;
 
 /// Solve (A + μ diag(D)) h = −g by Cholesky with Jacobi scaling on the variables not in the
 /// active set (whose step is 0); `None` if not positive definite. The factorisation is

@@ -7,8 +7,8 @@ use super::passes::{kernel_rows_any, p4, ts_d3_log, ts_d3_log_applies, ts_d3_log
 use super::rows::{Derived, Rows};
 use super::select::largest;
 use super::transform::Transform;
-use crate::fit::Watch;
 use crate::fit::lsq::{Normal, Problem, Robust};
+use crate::fit::progress::Watch;
 use crate::model::{MAX_PARAMS, Model};
 
 /// Rows per channel above which a fit refines its candidates on a subsample of this many rows
@@ -41,7 +41,7 @@ pub struct BrdfProblem {
     pub loss: Loss,
     /// Counts every pass over the data as it starts (each evaluation of the cost, with or
     /// without its normal equations; problems derived from this one count here too), for a
-    /// progress display to read while a long fit goes on ([`super::FitOptions::watch`]).
+    /// progress display to read while a long fit goes on ([`crate::fit::FitOptions::watch`]).
     pub watch: Option<Watch>,
 }
 

@@ -322,7 +322,7 @@ impl<const LOSS: u8, const JAC: bool, const ROB: bool> Res<LOSS, JAC, ROB> {
 /// e^(ln c / 2.4).
 #[inline(always)]
 fn pixel_lanes(y: &[f64; LANES]) -> ([f64; LANES], [f64; LANES]) {
-    const D: f64 = super::PIXEL_CLIP_WIDTH;
+    const D: f64 = super::loss::PIXEL_CLIP_WIDTH;
     const KNEE: f64 = 0.003_130_8;
     let t: [f64; LANES] = std::array::from_fn(|l| (1.0 - y[l]) / D);
     let e = lanes::exp(&std::array::from_fn(|l| -t[l].abs()));
@@ -418,7 +418,7 @@ impl Ggx {
     }
 
     /// The lobe D G1(L) G1(E)/(4 N·E) (cosθi f_r per unit ps F) and its α-derivative from a
-    /// row's [tan² θi, tan² θo, tan² θh, 1/(4π N·E (N·H)⁴)] ([`super::GgxTerms`]):
+    /// row's [tan² θi, tan² θo, tan² θh, 1/(4π N·E (N·H)⁴)] ([`super::rows::GgxTerms`]):
     /// D/(4 N·E) = α² factor/q², q = α² + tan² θh (Walter et al. 2007, eq. 33), and
     /// dD/dα = D (2/α − 4α/q).
     #[inline(always)]
@@ -432,7 +432,7 @@ impl Ggx {
     }
 }
 
-/// The columns GGX–Smith's kernels read: N·L, the rows' [`super::GgxTerms`] (computed on first use),
+/// The columns GGX–Smith's kernels read: N·L, the rows' [`super::rows::GgxTerms`] (computed on first use),
 /// the target.
 fn ggx_columns(rows: &Rows) -> [&Vec<f64>; 7] {
     let t = rows.ggx();
@@ -482,7 +482,7 @@ pub(super) fn abc_shape_rows(b: f64, cs: &[f64], nh: &[f64], out: &mut Vec<f64>)
     }
 }
 
-/// One block of GGX–Smith: columns nl, the four [`super::GgxTerms`] of [`Ggx::lobe`], E·H (or 1),
+/// One block of GGX–Smith: columns nl, the four [`super::rows::GgxTerms`] of [`Ggx::lobe`], E·H (or 1),
 /// target ([`ggx_columns`]). y = cosθi f_r = pd cosθi/π + ps F D G1(L) G1(E)/(4 N·E), zero
 /// specular where N·H ≤ 0 or E·H ≤ 0 (there the terms make the lobe 0), as in
 /// `model::ggx_smith::brdf_grad`.
@@ -584,7 +584,7 @@ impl<const D: u8, const LOSS: u8, const JAC: bool, const ROB: bool> Block
 }
 
 /// One block of Blinn's Torrance–Sparrow with D1 = (N·H)^c1 = e^(c1 ln N·H), 0 where N·H ≤ 0
-/// (parameters n, c1, ps, pd): columns nl, N·H, ln N·H ([`super::Rows::ln_nh`], computed once
+/// (parameters n, c1, ps, pd): columns nl, N·H, ln N·H ([`super::rows::Rows::ln_nh`], computed once
 /// with the rows), eh, G/N·E, target; as [`TsBlock`] otherwise.
 struct TsD1Block<const LOSS: u8, const JAC: bool, const ROB: bool>(
     [f64; MAX_PARAMS],
