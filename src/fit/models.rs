@@ -193,7 +193,7 @@ type FitsOrError = Result<Vec<FitResult>, FitError>;
 
 /// The relative cost of a fit of `o` on real data, larger is dearer: [`fit_models`] starts
 /// the dearest first and counts a fit's progress in these units. Seconds per channel of a full
-/// MERL table (steel, 1,096,216 rows, `fit --model all`, the tenth round's binary: lambert
+/// MERL table (steel, 1,096,216 rows, `fit --model all` on a 2-core machine: lambert
 /// 0.18, phong 0.35, blinn-phong 0.31, Torrance–Sparrow d3 0.85, d2 1.3, d1 1.5, abc 2.1,
 /// ggx-smith 0.78, ggx-smith-2 4.1–12.6) over lambert's, rounded, with the order measured on
 /// MERL alumina-oxide's 16,512 rows where the two differ (phong and blinn-phong dearer than

@@ -175,7 +175,7 @@ pub(super) fn distinct_basins(sols: &[Solution]) -> Vec<&Solution> {
 /// With at least [`MID_ABOVE`] rows per channel, the basins are polished first on this
 /// fraction of the rows (a subsample of the same kind), then on every row. A 64th, not a
 /// 16th: gathering a 16th of a million rows (every 18th row of seven 8 MB columns) reads
-/// nearly every cache line, and on the 2-core VM of the tenth round cost more (about 7 ms)
+/// nearly every cache line, and on a 2-core machine cost more (about 7 ms)
 /// than the pass over every row it saved; with a 64th a million-row fit's solve took 22.5 ms
 /// against 28.5 ms at the median of six alternations, at the same cost to 1e-15.
 pub(super) const MID_FRACTION: usize = 64;
