@@ -12,7 +12,7 @@ use crate::setting::Setting;
 use std::time::Instant;
 
 /// One fit of one channel, or a joint fit of several, through the stages in order (see the
-/// module documentation of [`crate::fit`]).
+/// module documentation of [`crate::fit`](mod@crate::fit)).
 pub(super) fn fit_group(
     chans: Vec<ChannelRows>,
     opts: &FitOptions,

@@ -11,12 +11,13 @@ use crate::model::{Distribution, ModelKind};
 use std::sync::atomic::AtomicUsize;
 use std::time::Instant;
 
-/// Several fits of one dataset, e.g. `fit --model all`: each entry of `opts` as [`fit`] gives
-/// it (the same results), with the models fitted in parallel and each channel's geometry
-/// computed once for all the fits that share its loss, `--max-theta` and weighting (its time
-/// is counted in each fit's `geometry_seconds`). Run `repeat` times (benchmarks), it returns
-/// the first run's fits with their median times, as [`fit_timed`] does, and the median wall
-/// time of one run of them all (geometry included). The first error in `opts` order, if any.
+/// Several fits of one dataset, e.g. `fit --model all`: each entry of `opts` as
+/// [`fit`](crate::fit::fit) gives it (the same results), with the models fitted in parallel and
+/// each channel's geometry computed once for all the fits that share its loss, `--max-theta` and
+/// weighting (its time is counted in each fit's `geometry_seconds`). Run `repeat` times
+/// (benchmarks), it returns the first run's fits with their median times, as
+/// [`fit_timed`](crate::fit::fit_timed) does, and the median wall time of one run of them all
+/// (geometry included). The first error in `opts` order, if any.
 pub fn fit_models(
     ds: &Dataset,
     opts: &[FitOptions],
@@ -25,13 +26,13 @@ pub fn fit_models(
     fit_models_with_progress(ds, opts, repeat, &|_, _, _| {})
 }
 
-/// [`fit_models`], calling `progress(done, total, running)` as each channel's fit of a model
-/// starts and ends: `done` of `total` units of work (each fit weighs `work_weight`, its
-/// relative cost, so a bar's estimate of the time left holds while one dear fit runs for
-/// seconds: a full MERL table's ggx-smith-2), `running` the fits under way, e.g.
-/// `ggx-smith-2 (r), torrance-sparrow (abc) (g)`, and every [`TICK`] while fits run, with the
-/// passes over the data so far (`… · 1234 evaluations in all`). The fits count in a watch of
-/// their own: a `watch` set in `opts` is not used.
+/// [`fit_models`], calling `progress(done, total, running)` as each channel's fit of a model starts
+/// and ends: `done` of `total` units of work (each fit weighs `work_weight`, its relative cost, so
+/// a bar's estimate of the time left holds while one dear fit runs for seconds: a full MERL table's
+/// ggx-smith-2), `running` the fits under way, e.g. `ggx-smith-2 (r), torrance-sparrow (abc) (g)`,
+/// and every [`TICK`](crate::fit::TICK) while fits run, with the passes over the data so far (`… ·
+/// 1234 evaluations in all`). The fits count in a watch of their own: a `watch` set in `opts` is
+/// not used.
 pub fn fit_models_with_progress(
     ds: &Dataset,
     opts: &[FitOptions],
@@ -63,7 +64,7 @@ pub fn fit_models_with_progress(
         progress(now, total, &run.join(", "));
     };
     // Every fit counts its passes over the data in one watch, shown beside the fits running
-    // every [`TICK`]: the message moves while one dear fit runs for seconds.
+    // every [`TICK`](crate::fit::TICK): the message moves while one dear fit runs for seconds.
     let watch = std::sync::Arc::new(AtomicUsize::new(0));
     let owned: Vec<FitOptions> = opts
         .iter()
@@ -101,9 +102,9 @@ fn fit_runs(
     let key = |o: &FitOptions| (o.loss, o.max_theta_deg.map(f64::to_bits), o.weights);
     for _ in 0..repeat.max(1) {
         let t = Instant::now();
-        // Each distinct geometry once per channel: (its key, each channel's rows and time).
-        // On a thread of rayon's pool, as in [`fit`]: each parallel stage of the geometry
-        // pass then wakes the other core only, not this thread as well.
+        // Each distinct geometry once per channel: (its key, each channel's rows and time). On a
+        // thread of rayon's pool, as in [`fit`](crate::fit::fit): each parallel stage of the
+        // geometry pass then wakes the other core only, not this thread as well.
         let mut shared: Vec<(_, Vec<(ChannelRows, f64)>)> = rayon::scope(|_| {
             let mut shared: Vec<(_, Vec<(ChannelRows, f64)>)> = Vec::new();
             for o in opts {

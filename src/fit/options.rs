@@ -104,7 +104,8 @@ pub struct FitOptions {
     pub resolution: f64,
     /// Profile undetermined parameters to report the range that fits.
     pub profile: bool,
-    /// Random local starts run after the fit as a certificate (0 = none); see [`Verification`].
+    /// Random local starts run after the fit as a certificate (0 = none); see
+    /// [`Verification`](crate::fit::Verification).
     pub verify: usize,
     /// Seed of the verification starts.
     pub seed: u64,
@@ -139,16 +140,16 @@ impl FitOptions {
     }
 }
 
-/// The fraction of one standard error's rise in the cost (σ̂²/2 = S/(m − p) for the cost S =
-/// ½ Σ r² over m rows and p free variables) by which the polish's last
-/// [`crate::fit::lsq::RESOLUTION_STEPS`] steps together must lower the cost for it to go on: below that
-/// the steps move the parameters by a small fraction of a standard error (a cost ε·S/(m − p)
-/// above the minimum is √ε standard errors from it). On the 1,854 fits of `--model all` over
-/// the bundled and test files the parameters ended within 0.005 standard errors (those of the
-/// full polish) of where a polish to ftol = 1e-14 ends, their cost within a relative 1e-8 of
-/// that polish's, but for one: blinn-aluminium's GGX–Smith-2, whose two lobes the data do not
-/// tell apart, ended at the same cost at another point of its flat valley. The fits took
-/// 2.5 % fewer evaluations in all and 11 % fewer on MERL aluminium, a metal whose weakly
-/// determined index n makes the last steps crawl (on its green channel TS-d3's polish took 29
-/// steps, not 37; TS-D2's 22, not 36).
+/// The fraction of one standard error's rise in the cost (σ̂²/2 = S/(m − p) for the cost S = ½ Σ r²
+/// over m rows and p free variables) by which the polish's last
+/// [`crate::fit::lsq::RESOLUTION_STEPS`] steps together must lower the cost for it to go on: below
+/// that the steps move the parameters by a small fraction of a standard error (a cost ε·S/(m − p)
+/// above the minimum is √ε standard errors from it). On the 1,854 fits of `--model all` over the
+/// bundled and test files the parameters ended within 0.005 standard errors (those of the full
+/// polish) of where a polish to ftol = 1e-14 ends, their cost within a relative 1e-8 of that
+/// polish's, but for one: blinn-aluminium's GGX–Smith-2, whose two lobes the data do not tell
+/// apart, ended at the same cost at another point of its flat valley. The fits took 2.5 % fewer
+/// evaluations in all and 11 % fewer on MERL aluminium, a metal whose weakly determined index n
+/// makes the last steps crawl (on its green channel TS-d3's polish took 29 steps, not 37; TS-D2's
+/// 22, not 36).
 pub const RESOLUTION: f64 = 1e-6;

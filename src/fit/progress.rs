@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 pub const TICK: std::time::Duration = std::time::Duration::from_millis(250);
 
 /// A count of passes over the data, shared by the fits that add to it and the display that
-/// reads it ([`FitOptions::watch`], [`ticking`]).
+/// reads it ([`FitOptions::watch`](crate::fit::FitOptions::watch), [`ticking`]).
 pub type Watch = std::sync::Arc<AtomicUsize>;
 
 /// `what` and the passes over the data so far, as a progress message: `what · K evaluations in
@@ -19,9 +19,10 @@ pub fn with_count(what: &str, k: usize) -> String {
     }
 }
 
-/// Run `work`, calling `tick(count)` from another thread every [`TICK`] with `count`'s value
-/// while it runs, once it is above 0 (a fit's passes over the data: [`FitOptions::watch`]).
-/// The ticker stops as `work` ends, also by a panic.
+/// Run `work`, calling `tick(count)` from another thread every [`TICK`] with `count`'s value while
+/// it runs, once it is above 0 (a fit's passes over the data:
+/// [`FitOptions::watch`](crate::fit::FitOptions::watch)). The ticker stops as `work` ends, also by
+/// a panic.
 pub fn ticking<T>(
     count: &AtomicUsize,
     tick: &(dyn Fn(usize) + Sync),

@@ -10,10 +10,11 @@ use crate::model::{Distribution, ModelKind};
 
 impl FitResult {
     /// Read a fit back from its JSON object, checked first: only known keys, a known model and
-    /// distribution, and every parameter of the model present once, finite and within its
-    /// declared bounds ([`ParamSpec::admits`]); the error names the key and the fix. The JSON
-    /// of earlier versions (standard errors as an object, no certificate) is read as far as it
-    /// goes. Duplicate keys are lost in a `Value`: read text with [`read_fit_file`].
+    /// distribution, and every parameter of the model present once, finite and within its declared
+    /// bounds ([`ParamSpec::admits`](crate::model::ParamSpec::admits)); the error names the key and
+    /// the fix. The JSON of earlier versions (standard errors as an object, no certificate) is read
+    /// as far as it goes. Duplicate keys are lost in a `Value`: read text with
+    /// [`read_fit_file`](crate::fit::read_fit_file).
     pub fn from_json(v: &serde_json::Value) -> Result<FitResult, FitFileError> {
         fitfile::check_fit_object(v)?;
         match serde_json::from_value::<FitResult>(v.clone()) {

@@ -104,7 +104,7 @@ pub struct FitResult {
     /// The part of `seconds` after the minimum is reached: the checks at return (first-order
     /// conditions, `--verify`'s random starts), standard errors, correlations, the 1 %
     /// ranges (profiled refits where the quadratic model does not hold) and the physical
-    /// check (pd, directional albedo, index; [`physical`]).
+    /// check (pd, directional albedo, index; [`physical`](crate::fit::physical)).
     #[serde(default)]
     pub statistics_seconds: f64,
     /// Honest warnings: undetermined parameters with the range that fits, limits reached.

@@ -34,9 +34,9 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
     let sub = (full.rows.len() > per * full.layout.len())
         .then(|| mid.as_ref().unwrap_or(full).subsample(per));
     let work = sub.as_ref().unwrap_or(full);
-    // On every row the data's resolution ends the polish (see [`super::options::RESOLUTION`]); the same on a
-    // small file's candidates, which are refined on every row and not polished again. On a
-    // subsample only the basin matters: the polish on every row sets the final accuracy.
+    // On every row the data's resolution ends the polish (see [`super::options::RESOLUTION`]); the
+    // same on a small file's candidates, which are refined on every row and not polished again. On
+    // a subsample only the basin matters: the polish on every row sets the final accuracy.
     let polish_limits = polish_limits(full, opts);
     let refine_limits = if sub.is_some() {
         Limits {
@@ -235,10 +235,11 @@ pub fn random_start(p: &BrdfProblem, specs: &[&ParamSpec], rng: &mut impl rand::
 }
 
 /// The solver variables of the same f_r with each channel's parameters in canonical order
-/// ([`Model::canonical`]: ggx-smith-2's lobes with alpha1 ≤ alpha2). A parameter that moves
-/// takes the value of another free variable of the same transform (a lobe swap exchanges
-/// variables and changes no residual). Where that cannot be done (a held parameter, or a
-/// variable shared by channels that would swap differently), `x` is returned unchanged.
+/// ([`Model::canonical`](crate::model::Model::canonical): ggx-smith-2's lobes with alpha1 ≤
+/// alpha2). A parameter that moves takes the value of another free variable of the same transform
+/// (a lobe swap exchanges variables and changes no residual). Where that cannot be done (a held
+/// parameter, or a variable shared by channels that would swap differently), `x` is returned
+/// unchanged.
 pub(super) fn canonical(p: &BrdfProblem, x: &[f64]) -> Vec<f64> {
     let models = p.models(x);
     let n = p.n_model_params();

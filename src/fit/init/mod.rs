@@ -74,8 +74,8 @@ pub(super) fn global_init(
     let ordered = |i: usize| {
         mirror.is_none_or(|(d1, d2)| (i / strides[d1]) % dims[d1] <= (i / strides[d2]) % dims[d2])
     };
-    // Two GGX lobes: the linearised cost of every ordered point comes from its Gram sums with
-    // no pass over the rows, and only the best [`two_lobe::TWO_LOBE_KEEP`] of them by it are scored on
+    // Two GGX lobes: the linearised cost of every ordered point comes from its Gram sums with no
+    // pass over the rows, and only the best [`two_lobe::TWO_LOBE_KEEP`] of them by it are scored on
     // the declared loss (a pass over the rows each, most of the grid's cost).
     let kept = s
         .two_lobes

@@ -5,8 +5,8 @@
 use crate::fit::lsq;
 
 /// The linear coefficients that minimise ½ cᵀGc − hᵀc (the weighted linear least squares of
-/// [`gram_sums`]) with the held coefficients (`free` false) at their values in `c` and the
-/// free ones ≥ 0 ([`nnls`]); at most [`LINEAR_MAX`] coefficients.
+/// [`super::linear::gram_sums`]) with the held coefficients (`free` false) at their values in `c`
+/// and the free ones ≥ 0 ([`nnls`]); at most [`LINEAR_MAX`] coefficients.
 pub(super) fn linear_solve(g: &[f64], h: &[f64], c: &[f64], free: &[bool]) -> Vec<f64> {
     let k = c.len();
     assert!(
@@ -134,8 +134,8 @@ pub(super) fn positive_solve3(g: &[f64; 9], h: &[f64; 3]) -> Option<[f64; 3]> {
 /// of the face its positive coefficients span, so it is the lowest of the faces' interior
 /// minima that are feasible (each coefficient of the face positive), or 0. A face whose
 /// matrix is not well inside positive definite (a pivot at most 1e-10 of its diagonal) is
-/// passed over. [`nnls`]'s answer without its allocations, for [`two_lobe_linearised`]'s
-/// points where [`positive_solve3`] declines.
+/// passed over. [`nnls`]'s answer without its allocations, for the two-lobe prescreen's
+/// points where [`positive_solve3`] declines ([`super::two_lobe`]).
 pub(super) fn nnls3(g: &[f64; 9], h: &[f64; 3]) -> [f64; 3] {
     let mut best = ([0.0; 3], 0.0);
     let mut consider = |c: [f64; 3]| {

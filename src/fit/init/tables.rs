@@ -180,10 +180,10 @@ impl LobeTables {
     }
 }
 
-/// The Gram sums of [`gram_sums`] for two lobes of the same form sharing the Fresnel factor
-/// (ggx-smith-2 on one channel) at every point of a grid α1 × α2 × n, from three matrix
-/// products per n: with u = w F(n)², Σ u L(αa) L(αb) for every pair of the grid's α, and
-/// Σ w F(n) L(αa), Σ (w f) F(n) L(αa) for every α; nothing evaluated per point.
+/// The Gram sums of [`super::linear::gram_sums`] for two lobes of the same form sharing the Fresnel
+/// factor (ggx-smith-2 on one channel) at every point of a grid α1 × α2 × n, from three matrix
+/// products per n: with u = w F(n)², Σ u L(αa) L(αb) for every pair of the grid's α, and Σ w F(n)
+/// L(αa), Σ (w f) F(n) L(αa) for every α; nothing evaluated per point.
 pub(super) struct TwoLobeGram {
     /// Per n: Σ w F² La Lb, row-major over the α grid.
     ll: Vec<Vec<f64>>,
@@ -235,7 +235,7 @@ impl TwoLobeGram {
     }
 
     /// The Gram matrix (row-major) and right-hand side of the bases (lobe at α index `a1`,
-    /// lobe at `a2`, ones) at n index `j`, as [`gram_sums`] gives them.
+    /// lobe at `a2`, ones) at n index `j`, as [`super::linear::gram_sums`] gives them.
     pub(super) fn gram(&self, a1: usize, a2: usize, j: usize) -> (Vec<f64>, Vec<f64>) {
         let (g, h) = self.gram3(a1, a2, j);
         (g.to_vec(), h.to_vec())
@@ -466,7 +466,7 @@ mod tests {
     }
 
     /// The two-lobe Gram sums ([`two_lobe_sums`]) equal, point by point, the row loop of
-    /// [`gram_sums`] over the tabulated bases (lobe at α1, lobe at α2, ones).
+    /// [`super::linear::gram_sums`] over the tabulated bases (lobe at α1, lobe at α2, ones).
     #[test]
     fn two_lobe_gram_matches_the_row_sums() {
         let rows = spread_rows();

@@ -432,8 +432,8 @@ impl Ggx {
     }
 }
 
-/// The columns GGX–Smith's kernels read: N·L, the rows' [`super::rows::GgxTerms`] (computed on first use),
-/// the target.
+/// The columns GGX–Smith's kernels read: N·L, the rows' [`super::rows::GgxTerms`] (computed on
+/// first use), the target.
 fn ggx_columns(rows: &Rows) -> [&Vec<f64>; 7] {
     let t = rows.ggx();
     [
@@ -482,8 +482,8 @@ pub(super) fn abc_shape_rows(b: f64, cs: &[f64], nh: &[f64], out: &mut Vec<f64>)
     }
 }
 
-/// One block of GGX–Smith: columns nl, the four [`super::rows::GgxTerms`] of [`Ggx::lobe`], E·H (or 1),
-/// target ([`ggx_columns`]). y = cosθi f_r = pd cosθi/π + ps F D G1(L) G1(E)/(4 N·E), zero
+/// One block of GGX–Smith: columns nl, the four [`super::rows::GgxTerms`] of [`Ggx::lobe`], E·H (or
+/// 1), target ([`ggx_columns`]). y = cosθi f_r = pd cosθi/π + ps F D G1(L) G1(E)/(4 N·E), zero
 /// specular where N·H ≤ 0 or E·H ≤ 0 (there the terms make the lobe 0), as in
 /// `model::ggx_smith::brdf_grad`.
 struct GgxBlock<const LOSS: u8, const JAC: bool, const ROB: bool>(Ggx, Res<LOSS, JAC, ROB>);
@@ -793,9 +793,10 @@ mod tests {
     /// Each lane kernel gives the cost and normal equations of the row-by-row path through
     /// `Model::brdf_grad` (an independent code path: library `powf`, `exp`, `acos`, `ln_1p`, the
     /// model's own Fresnel, D and G, the robust ρ and weight) to 1e-11 relative, for the three
-    /// losses (log, linear, pixel: targets up to 3, across the pixel's knee and clip), without and with a robust weight (Huber, Cauchy at a threshold some residuals
-    /// pass), weighted rows or not, for any row count (a tail shorter than a block included),
-    /// sharp and broad lobes, every model with a kernel.
+    /// losses (log, linear, pixel: targets up to 3, across the pixel's knee and clip), without and
+    /// with a robust weight (Huber, Cauchy at a threshold some residuals pass), weighted rows or
+    /// not, for any row count (a tail shorter than a block included), sharp and broad lobes, every
+    /// model with a kernel.
     #[test]
     fn lane_kernels_match_row_kernel() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);

@@ -60,8 +60,8 @@ impl TsD3 {
         }
     }
 
-    /// D3 and dD3/dc3 at cos θh = `nh`, without branches (0 where [`crate::model::Distribution::eval_dc`]
-    /// returns early).
+    /// D3 and dD3/dc3 at cos θh = `nh`, without branches (0 where
+    /// [`crate::model::Distribution::eval_dc`] returns early).
     #[inline(always)]
     pub(super) fn d(&self, nh: f64) -> (f64, f64) {
         // D3 = (c²/den)², den = x(c²−1) + 1, x = (N·H)²; dD/dc = 4c³(1 − x)/den³.
@@ -81,8 +81,8 @@ impl TsD3 {
 
     /// a = D3 F G/(π N·E), the specular term per unit ps times cosθi (so f_r = pd/π + ps a/N·L),
     /// and its derivatives with respect to n and c3. The formulas of [`crate::model::fresnel_dn`]
-    /// and D3 in [`crate::model::Distribution::eval_dc`], without branches (where those return early, the
-    /// selects below give the same) and with the divisions shared.
+    /// and D3 in [`crate::model::Distribution::eval_dc`], without branches (where those return
+    /// early, the selects below give the same) and with the divisions shared.
     #[inline(always)]
     pub(super) fn eval(&self, nh: f64, eh: f64, g_ne: f64) -> (f64, [f64; 2]) {
         let (d, dd) = self.d(nh);
