@@ -1,9 +1,14 @@
 //! Stage 4 of a fit: the checks at return (first-order conditions, absurd values, random-start
 //! verification).
 
+use super::dispatch;
+use super::lsq::{self, Limits, Problem, Robust, Solution};
+use super::options::FitOptions;
+use super::problem::BrdfProblem;
+use super::result::{KKT_TOLERANCE, SAME_MINIMUM, Verification};
 use super::setup::Layout;
-use super::solve::Search;
-use super::*;
+use super::solve::{Search, random_start};
+use crate::model::{ParamSpec, readable};
 
 /// What the checks at return found.
 pub(super) struct Checks {
@@ -144,7 +149,7 @@ pub(super) fn verify(
         .collect();
     let mut sols: Vec<Solution> = starts
         .par_iter()
-        .map(|x0| lsq::solve(work, x0, opts.method, Robust::None, limits))
+        .map(|x0| dispatch::solve(work, x0, opts.method, Robust::None, limits))
         .collect();
     let mut evaluations: usize = sols.iter().map(|s| s.evaluations).sum();
     sols.sort_by(|a, b| a.cost.total_cmp(&b.cost));
@@ -170,7 +175,7 @@ pub(super) fn verify(
                         };
                     }
                 }
-                lsq::solve(full, &s.x, opts.method, robust, &opts.limits)
+                dispatch::solve(full, &s.x, opts.method, robust, &opts.limits)
             })
             .collect()
     };

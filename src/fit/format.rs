@@ -1,6 +1,9 @@
 //! Ranking fits of one channel and the terminal tables.
 
-use super::*;
+use super::options::Weighting;
+use super::result::FitResult;
+use super::stats::describe_range;
+use crate::model::{Distribution, ModelKind, readable};
 
 /// The models compared by `--model all`: (kind, distribution), simplest first.
 pub fn all_models() -> Vec<(ModelKind, Distribution)> {

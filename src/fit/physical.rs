@@ -15,7 +15,7 @@
 //!    exist (MERL steel, edge lit: GGX α 0.0075, n = 1.0001, ps = 10217; MERL aluminium,
 //!    edge lit: Torrance–Sparrow D3 c3 0.013, n = 1.00022, ps = 3.2e6).
 
-use super::FitResult;
+use super::result::FitResult;
 use crate::model::albedo::{albedos, coarse_albedos, max_albedo};
 use crate::model::{Model, Role, readable};
 

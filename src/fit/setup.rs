@@ -2,7 +2,12 @@
 //! solver variables, the checks that the data can determine them, and the least-squares
 //! problem over every channel's rows.
 
-use super::*;
+use super::options::{FitError, FitOptions, Weighting, fit_error};
+use super::problem::{self, BrdfProblem, Loss, RowWriter, Rows, Slot, Transform};
+use crate::data::Dataset;
+use crate::lanes::{self, LANES};
+use crate::model::{Geometry, Model, ParamSpec, Role};
+use crate::setting::Setting;
 
 /// One channel's usable samples, converted to f_r.
 #[derive(Clone)]

@@ -1,9 +1,13 @@
 //! Stage 3 of a fit: the local method from the initialisation's candidates, on a subsample
 //! and then on every row, and the distinct basins polished.
 
+use super::dispatch;
 use super::init::global_init;
+use super::lsq::{self, Limits, Problem, Robust, Solution};
+use super::options::{FitOptions, RobustKind};
+use super::problem::{BrdfProblem, Slot};
 use super::setup::Layout;
-use super::*;
+use crate::model::ParamSpec;
 
 /// What the search found and what it cost.
 pub(super) struct Search {
@@ -30,9 +34,9 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
     let sub = (full.rows.len() > per * full.layout.len())
         .then(|| mid.as_ref().unwrap_or(full).subsample(per));
     let work = sub.as_ref().unwrap_or(full);
-    // On every row the data's resolution ends the polish (see [`RESOLUTION`]); the same on a
-    // small file's candidates, which are refined on every row and not polished again. On a
-    // subsample only the basin matters: the polish on every row sets the final accuracy.
+    // On every row the data's resolution ends the polish (see [`super::options::RESOLUTION`]); the
+    // same on a small file's candidates, which are refined on every row and not polished again. On
+    // a subsample only the basin matters: the polish on every row sets the final accuracy.
     let polish_limits = polish_limits(full, opts);
     let refine_limits = if sub.is_some() {
         Limits {
@@ -42,7 +46,8 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
     } else {
         polish_limits
     };
-    let refine = |x0: &Vec<f64>| lsq::solve(work, x0, opts.method, Robust::None, &refine_limits);
+    let refine =
+        |x0: &Vec<f64>| dispatch::solve(work, x0, opts.method, Robust::None, &refine_limits);
     let start = || start_vector(full, &lay.specs, &lay.names, &opts.start);
     // The grid's subsample is drawn from the local stage's (the same largest values, no
     // second pass over every row). A start given with the global initialisation (or the start
@@ -85,12 +90,12 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
             .par_iter()
             .map(|s| match &mid {
                 Some(mp) => {
-                    let m = lsq::solve(mp, &s.x, opts.method, robust, &mid_limits);
-                    let f = lsq::solve(full, &m.x, opts.method, robust, &polish_limits);
+                    let m = dispatch::solve(mp, &s.x, opts.method, robust, &mid_limits);
+                    let f = dispatch::solve(full, &m.x, opts.method, robust, &polish_limits);
                     (f, m.iterations, m.evaluations)
                 }
                 None => (
-                    lsq::solve(full, &s.x, opts.method, robust, &polish_limits),
+                    dispatch::solve(full, &s.x, opts.method, robust, &polish_limits),
                     0,
                     0,
                 ),
@@ -112,7 +117,7 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
             for x0 in &candidates {
                 let c0 = lsq::cost(full, x0, robust).unwrap_or(f64::INFINITY);
                 if c0 < best.cost {
-                    let s = lsq::solve(full, x0, opts.method, robust, &polish_limits);
+                    let s = dispatch::solve(full, x0, opts.method, robust, &polish_limits);
                     iterations += s.iterations;
                     evaluations += s.evaluations;
                     if s.cost < best.cost {
@@ -134,20 +139,6 @@ pub(super) fn search(full: &BrdfProblem, lay: &Layout, opts: &FitOptions) -> Sea
         evaluations,
     }
 }
-
-/// The fraction of one standard error's rise in the cost (σ̂²/2 = S/(m − p) for the cost S =
-/// ½ Σ r² over m rows and p free variables) by which the polish's last
-/// [`lsq::RESOLUTION_STEPS`] steps together must lower the cost for it to go on: below that
-/// the steps move the parameters by a small fraction of a standard error (a cost ε·S/(m − p)
-/// above the minimum is √ε standard errors from it). On the 1,854 fits of `--model all` over
-/// the bundled and test files the parameters ended within 0.005 standard errors (those of the
-/// full polish) of where a polish to ftol = 1e-14 ends, their cost within a relative 1e-8 of
-/// that polish's, but for one: blinn-aluminium's GGX–Smith-2, whose two lobes the data do not
-/// tell apart, ended at the same cost at another point of its flat valley. The fits took
-/// 2.5 % fewer evaluations in all and 11 % fewer on MERL aluminium, a metal whose weakly
-/// determined index n makes the last steps crawl (on its green channel TS-d3's polish took 29
-/// steps, not 37; TS-D2's 22, not 36).
-pub const RESOLUTION: f64 = 1e-6;
 
 /// The limits of a polish on every row of `full`: `opts.limits` with the data's resolution
 /// ([`FitOptions::resolution`] of S/(m − p), relative to the cost).
@@ -184,7 +175,7 @@ pub(super) fn distinct_basins(sols: &[Solution]) -> Vec<&Solution> {
 /// With at least [`MID_ABOVE`] rows per channel, the basins are polished first on this
 /// fraction of the rows (a subsample of the same kind), then on every row. A 64th, not a
 /// 16th: gathering a 16th of a million rows (every 18th row of seven 8 MB columns) reads
-/// nearly every cache line, and on the 2-core VM of the tenth round cost more (about 7 ms)
+/// nearly every cache line, and on a 2-core machine cost more (about 7 ms)
 /// than the pass over every row it saved; with a 64th a million-row fit's solve took 22.5 ms
 /// against 28.5 ms at the median of six alternations, at the same cost to 1e-15.
 pub(super) const MID_FRACTION: usize = 64;
@@ -244,10 +235,11 @@ pub fn random_start(p: &BrdfProblem, specs: &[&ParamSpec], rng: &mut impl rand::
 }
 
 /// The solver variables of the same f_r with each channel's parameters in canonical order
-/// ([`Model::canonical`]: ggx-smith-2's lobes with alpha1 ≤ alpha2). A parameter that moves
-/// takes the value of another free variable of the same transform (a lobe swap exchanges
-/// variables and changes no residual). Where that cannot be done (a held parameter, or a
-/// variable shared by channels that would swap differently), `x` is returned unchanged.
+/// ([`Model::canonical`](crate::model::Model::canonical): ggx-smith-2's lobes with alpha1 ≤
+/// alpha2). A parameter that moves takes the value of another free variable of the same transform
+/// (a lobe swap exchanges variables and changes no residual). Where that cannot be done (a held
+/// parameter, or a variable shared by channels that would swap differently), `x` is returned
+/// unchanged.
 pub(super) fn canonical(p: &BrdfProblem, x: &[f64]) -> Vec<f64> {
     let models = p.models(x);
     let n = p.n_model_params();

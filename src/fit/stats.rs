@@ -1,8 +1,11 @@
 //! Stage 5 of a fit: what the data say about each parameter (standard errors,
 //! correlations, 1 % ranges, profiles) and the reported parameters.
 
+use super::lsq::{self, Limits, Robust, Solution};
+use super::options::FitOptions;
+use super::problem::{BrdfProblem, Slot};
 use super::setup::Layout;
-use super::*;
+use crate::model::{Scale, readable};
 
 /// What the data say about each free parameter.
 pub(super) struct Uncertainty {
@@ -473,6 +476,8 @@ pub(super) fn crossing(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fit::problem::Loss;
+    use crate::model::ModelKind;
 
     /// A profiled cost given as a function (no refit: `warm` is passed through).
     fn probe(f: impl Fn(f64) -> f64) -> impl Fn(f64, &[f64]) -> (f64, Vec<f64>) {
