@@ -5,7 +5,8 @@ Every path a source file names (`crate::a::b`, `super::c`, `self::d`, a `use` gr
 to the module it points into; each reference becomes an edge between the two modules' children
 of their nearest common ancestor (so `fit::lsq` naming `fit::argmin_peer::solve` is the edge
 lsq -> argmin_peer, and `render::scene` naming `fit::pick` is render -> fit). A parent naming its
-own child, or a child its parent, is how Rust modules are built and is not counted. Unit tests
+own child, or a child its parent, is how Rust modules are built and is not counted; a name a
+module re-exports (`pub use`) is followed to the module that defines it. Unit tests
 (from `#[cfg(test)]` to the end of a file) are left out. Prints every cycle; exits 1 if any.
 """
 import os
@@ -56,11 +57,53 @@ def main():
             if f.endswith(".rs"):
                 files[module_of(os.path.join(d, f))] = os.path.join(d, f)
     modules = set(files)
+    texts = {m: strip(open(p, encoding="utf-8").read()) for m, p in files.items()}
+
+    def absolute(mod, segs):
+        """A path as written in `mod`, made absolute: (base module, remaining segments)."""
+        base = list(mod)
+        if segs[0] == "crate":
+            return [], segs[1:]
+        while segs and segs[0] in ("super", "self"):
+            if segs[0] == "super":
+                base = base[:-1]
+            segs = segs[1:]
+        if segs and tuple(base) + (segs[0],) not in modules and mod + (segs[0],) in modules:
+            base = list(mod)
+        return base, segs
+
+    # Names each module re-exports: name -> absolute path of what it names.
+    reexports = {}
+    for mod, text in texts.items():
+        for m in re.finditer(r"\bpub(?:\([^)]*\))?\s+use\s+([^;]+);", text):
+            for p in expand_use(m.group(1)):
+                segs = [x.strip() for x in p.split("::") if x.strip()]
+                if len(segs) < 2 or segs[-1] == "*":
+                    continue
+                if segs[0] not in ("crate", "super", "self") and mod + (segs[0],) not in modules:
+                    continue  # another crate's item
+                if segs[0] not in ("crate", "super", "self"):
+                    segs = ["self"] + segs
+                base, rest = absolute(mod, segs)
+                reexports.setdefault(mod, {})[segs[-1]] = (tuple(base), rest)
+
+    def resolve(base, segs, depth=0):
+        target = tuple(base)
+        for i, s in enumerate(segs):
+            if target + (s,) in modules:
+                target = target + (s,)
+            elif depth < 8 and s in reexports.get(target, {}):
+                b, rest = reexports[target][s]
+                return resolve(b, rest, depth + 1)
+            else:
+                break
+        return target
+
     edges = {}
     for mod, path in files.items():
         if mod and mod[0] == "cli" or path.endswith("main.rs"):
             continue  # the binary's own modules
-        text = strip(open(path, encoding="utf-8").read())
+        text = texts[mod]
         paths = []
         for m in re.finditer(r"\buse\s+([^;]+);", text):
             paths += expand_use(m.group(1))
@@ -69,20 +112,7 @@ def main():
             segs = [s.strip() for s in p.split("::") if s.strip()]
             if not segs or segs[0] not in ("crate", "super", "self"):
                 continue
-            base = list(mod)
-            if segs[0] == "crate":
-                base, segs = [], segs[1:]
-            else:
-                while segs and segs[0] in ("super", "self"):
-                    if segs[0] == "super":
-                        base = base[:-1]
-                    segs = segs[1:]
-            target = tuple(base)
-            for s in segs:
-                if target + (s,) in modules:
-                    target = target + (s,)
-                else:
-                    break
+            target = resolve(*absolute(mod, segs))
             if target == mod:
                 continue
             k = 0
@@ -92,6 +122,10 @@ def main():
                 continue  # parent and child
             parent = mod[:k]
             edges.setdefault(parent, {}).setdefault(mod[k], set()).add(target[k])
+    if "--edges" in sys.argv:
+        for parent, graph in sorted(edges.items()):
+            for a, bs in sorted(graph.items()):
+                print("::".join(parent) or "crate", a, "->", ", ".join(sorted(bs)))
     cycles = []
     for parent, graph in sorted(edges.items()):
         # Tarjan's strongly connected components.
