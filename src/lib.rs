@@ -48,6 +48,7 @@ pub mod plot;
 mod png;
 pub mod render;
 pub mod report;
+pub mod scene;
 // Public for the binary and the integration tests (separate crates), not library API.
 #[doc(hidden)]
 pub mod setting;

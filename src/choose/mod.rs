@@ -32,8 +32,8 @@ mod verdict;
 use crate::fit::Watch;
 use crate::model::{Distribution, Model, ModelKind};
 use crate::render::measured::Dims;
-use crate::render::scene::{Lighting, fig7_scene};
 use crate::render::{Image, Scene};
+use crate::render::{Lighting, fig7_scene};
 use glam::DVec3;
 
 pub use files::write;

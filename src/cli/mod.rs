@@ -184,7 +184,7 @@ pub(crate) fn quiet() -> bool {
 /// Read a scene file and say on stderr (unless --quiet) what was chosen for the user in it,
 /// and its warnings (always).
 pub(crate) fn load_scene(path: &std::path::Path) -> anyhow::Result<brdfit::render::Scene> {
-    let (scene, notes) = brdfit::render::scene::load_scene_noted(path)?;
+    let (scene, notes) = brdfit::scene::load_scene_noted(path)?;
     for n in notes {
         // Warnings (already FILE:LINE) even with --quiet, like the loaders' warnings.
         if n.starts_with("warning: ") {

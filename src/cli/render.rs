@@ -136,7 +136,7 @@ pub(crate) fn run_render(
         let al = ts_model_from(al, Model::blinn_aluminium(), pick, channel)?;
         let mgo = ts_model_from(mgo, Model::blinn_mgo(), pick, channel)?;
         for (m, flag) in [(&al, "--aluminium"), (&mgo, "--mgo")] {
-            render::scene::fig7_scene(*m, render::scene::Lighting::Front, res)
+            render::fig7_scene(*m, render::Lighting::Front, res)
                 .check_inputs()
                 .map_err(|e| anyhow!("{flag}: {e}"))?;
         }

@@ -23,7 +23,7 @@
 //! (`geometry`), the meshes' BVH (`bvh`), materials (`material`), the camera (`camera`),
 //! Whitted's ray tree (`trace`), anti-aliasing and the render loops (`sampling`), sRGB
 //! (`srgb`), image files (`save`), resampling (`resample`) and Figure 7's contact sheet
-//! (`sheet`); scene files in [`scene`], measured materials in [`measured`] and
+//! (`sheet`), Figure 7's scenes (`preset`); scene files in [`crate::scene`], measured materials in [`measured`] and
 //! [`reconstruct`], image differences in [`compare`] and [`flip`].
 
 mod bvh;
@@ -34,11 +34,11 @@ mod geometry;
 mod gonio;
 mod material;
 pub mod measured;
+mod preset;
 pub mod reconstruct;
 mod resample;
 mod sampling;
 mod save;
-pub mod scene;
 mod sheet;
 mod srgb;
 mod trace;
@@ -47,6 +47,7 @@ pub use bvh::Mesh;
 pub use camera::{Camera, CameraFrame};
 pub use geometry::{Light, Object, Ray, Shape, reflect, refract};
 pub use material::{Checker, Material, RoughnessTexture};
+pub use preset::{Lighting, fig7_scene};
 pub use resample::resize_catmull_rom;
 pub use sampling::{AntiAlias, Corners};
 pub use save::{MAX_PIXELS, MAX_SIDE, check_finite, check_image_size, rmse, save};
@@ -147,7 +148,7 @@ impl Scene {
     /// Check what the renderer relies on: every number finite, radiances, colours and
     /// intensities ≥ 0, ks, kt and `min_weight` in [0, 1], a positive index, checker size and
     /// resolution, a camera that can look. A scene file is checked in more detail where it is
-    /// read ([`scene::parse_scene`]); this guards scenes built in code.
+    /// read ([`crate::scene::parse_scene`]); this guards scenes built in code.
     pub fn check_inputs(&self) -> Result<(), String> {
         let fin = |v: DVec3| v.is_finite();
         let nonneg = |v: DVec3| v.is_finite() && v.min_element() >= 0.0;

@@ -1,7 +1,7 @@
 //! Blinn's Figure 7: the eight images, and the labelled contact sheet that lays them out with
 //! the edge-lit crescents cropped and zoomed.
 
-use super::{AntiAlias, Image, resize_catmull_rom, scene, to_srgb8};
+use super::{AntiAlias, Image, Lighting, fig7_scene, resize_catmull_rom, to_srgb8};
 use crate::model::Model;
 
 /// The eight images of Blinn's Figure 7: `{aluminium,mgo}-{front,edge}-{phong,ts}`, with the
@@ -25,12 +25,9 @@ pub fn fig7_images_with_progress(
 ) -> Vec<(String, Image)> {
     let mut out = Vec::new();
     for (mat, ts) in [("aluminium", aluminium), ("mgo", mgo)] {
-        for (lname, lighting) in [
-            ("front", scene::Lighting::Front),
-            ("edge", scene::Lighting::Edge),
-        ] {
+        for (lname, lighting) in [("front", Lighting::Front), ("edge", Lighting::Edge)] {
             for (mname, m) in [("phong", crate::model::equal_beta_phong(ts)), ("ts", *ts)] {
-                let mut s = scene::fig7_scene(m, lighting, res);
+                let mut s = fig7_scene(m, lighting, res);
                 s.antialias = aa;
                 out.push((format!("{mat}-{lname}-{mname}"), s.render(progress)));
             }

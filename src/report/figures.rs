@@ -147,11 +147,11 @@ pub(super) fn renders(doc: &mut Doc, set: &DataSet, ts: &FitResult) -> Result<()
     ));
     let mut names = Vec::new();
     for (lname, l) in [
-        ("front", render::scene::Lighting::Front),
-        ("edge", render::scene::Lighting::Edge),
+        ("front", render::Lighting::Front),
+        ("edge", render::Lighting::Edge),
     ] {
         for (mname, mm) in [("phong", crate::model::equal_beta_phong(&m)), ("ts", m)] {
-            let img = render::scene::fig7_scene(mm, l, opts.render_res).render(&|| {});
+            let img = render::fig7_scene(mm, l, opts.render_res).render(&|| {});
             let base = root.join(dir).join(format!("render-{lname}-{mname}"));
             render::save(&img, &base)?;
             names.push(format!("{dir}/render-{lname}-{mname}.png"));

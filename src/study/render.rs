@@ -34,12 +34,10 @@ pub fn render_study_with_progress(
     res: u32,
     progress: &(dyn Fn(usize, usize, &str) + Sync),
 ) -> Vec<RenderRow> {
-    use crate::render::scene;
+    use crate::render::{Lighting, fig7_scene};
     let scenes: Vec<crate::render::Scene> = [Model::blinn_aluminium(), Model::blinn_mgo()]
         .iter()
-        .flat_map(|m| {
-            [scene::Lighting::Front, scene::Lighting::Edge].map(|l| scene::fig7_scene(*m, l, res))
-        })
+        .flat_map(|m| [Lighting::Front, Lighting::Edge].map(|l| fig7_scene(*m, l, res)))
         .collect();
     render_study_scenes_with_progress(&scenes, progress)
 }

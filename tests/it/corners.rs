@@ -3,8 +3,9 @@
 //! renderer's own path that intersects and builds the geometry at every sample.
 
 use brdfit::model::{Distribution, Model, ModelKind};
-use brdfit::render::scene::{Lighting, fig7_scene, load_scene};
 use brdfit::render::{AntiAlias, Image, Scene};
+use brdfit::render::{Lighting, fig7_scene};
+use brdfit::scene::load_scene;
 use std::path::Path;
 
 fn bits(img: &Image) -> Vec<[u32; 3]> {

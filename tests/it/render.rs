@@ -2,8 +2,9 @@
 //! Blinn's Figure 7 findings measured on the linear images.
 
 use brdfit::model::{Distribution, Model, ModelKind};
-use brdfit::render::scene::{Lighting, fig7_scene, parse_scene};
 use brdfit::render::{self, AntiAlias, Image, refract};
+use brdfit::render::{Lighting, fig7_scene};
+use brdfit::scene::parse_scene;
 use glam::DVec3;
 use std::path::Path;
 

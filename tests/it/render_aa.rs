@@ -4,8 +4,9 @@
 
 use super::render::{lum, scene, sphere_pixels};
 use brdfit::model::Model;
-use brdfit::render::scene::{Lighting, fig7_scene, parse_scene};
 use brdfit::render::{self, AntiAlias};
+use brdfit::render::{Lighting, fig7_scene};
+use brdfit::scene::parse_scene;
 use std::path::Path;
 
 #[test]
@@ -39,7 +40,7 @@ fn bundled_scenes_render() {
         "data/scenes/mitsuba-front.toml",
         "data/scenes/showcase.toml",
     ] {
-        let mut s = brdfit::render::scene::load_scene(Path::new(f)).unwrap();
+        let mut s = brdfit::scene::load_scene(Path::new(f)).unwrap();
         s.camera.width = 64;
         s.camera.height = 40;
         let img = s.render(&|| {});

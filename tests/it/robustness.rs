@@ -333,7 +333,7 @@ fn named_fitter_cases() {
 
 #[test]
 fn named_renderer_cases() {
-    use brdfit::render::scene::parse_scene;
+    use brdfit::scene::parse_scene;
     let base = |extra: &str| {
         format!(
             "{extra}\n[materials.m]\nmodel = \"lambert\"\nparams = {{ pd = 0.5 }}\n[[objects]]\nkind = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"m\"\n"
@@ -371,7 +371,7 @@ fn named_renderer_cases() {
     let dir = tempfile::tempdir().unwrap();
     let obj = dir.path().join("bad.obj");
     std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nf 1 2 9\n").unwrap();
-    let e = brdfit::render::scene::read_obj(&obj).unwrap_err();
+    let e = brdfit::scene::read_obj(&obj).unwrap_err();
     assert!(e.to_string().contains("bad.obj:3"), "{e}");
     let _ = Format::Csv;
 }
@@ -696,7 +696,7 @@ fn choose_refuses_a_test_object_with_no_lit_pixel() {
 /// The test object is the first material in file order (not by name), or `test_object`.
 #[test]
 fn the_test_object_is_first_in_file_order_or_named() {
-    use brdfit::render::scene::parse_scene;
+    use brdfit::scene::parse_scene;
     // `zfloor` comes first in the file and last by name.
     let text = catalogue_scene(&[]).replace("floor", "zfloor");
     let text = text.replacen(

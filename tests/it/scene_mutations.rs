@@ -8,7 +8,7 @@
 
 use brdfit::choose::{self, Case, ChooseOptions};
 use brdfit::model::Model;
-use brdfit::render::scene::parse_scene;
+use brdfit::scene::parse_scene;
 use rand::{Rng, SeedableRng};
 
 /// Values a mutation puts in place of one number.

@@ -39,7 +39,7 @@ material = "test"
 "#,
         pi = std::f64::consts::PI
     );
-    brdfit::render::scene::parse_scene(&text, std::path::Path::new(".")).unwrap()
+    brdfit::scene::parse_scene(&text, std::path::Path::new(".")).unwrap()
 }
 
 /// Render `scene` with its sphere reflecting by `table`.

@@ -1,4 +1,6 @@
-//! Scene files (TOML), the built-in Figure 7 scenes, and the OBJ reader.
+//! Scene files (TOML) and the OBJ reader, read into a [`crate::render::Scene`]; a material may
+//! name a fit file (`fit = "…"`), read through [`crate::fit::read_fit_file`]. The built-in Figure 7 scenes
+//! are the renderer's ([`crate::render::fig7_scene`]), re-exported here.
 //!
 //! ```toml
 //! max_depth = 4            # ray-tree depth (1 = primary rays only)
@@ -51,15 +53,14 @@ mod lines;
 mod material;
 mod obj;
 mod parse;
-mod preset;
 mod spec;
 mod values;
 
+pub use crate::render::{Lighting, fig7_scene};
 pub use obj::read_obj;
 pub use parse::{parse_scene, parse_scene_noted, plane_axes};
-pub use preset::{Lighting, fig7_scene};
 
-use super::Scene;
+use crate::render::Scene;
 use anyhow::{Result, anyhow};
 use lines::AtLine;
 use std::path::Path;
