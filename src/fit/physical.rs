@@ -19,13 +19,11 @@ use super::result::FitResult;
 use crate::model::albedo::{albedos, coarse_albedos, max_albedo};
 use crate::model::{Model, Role, readable};
 
-/// Albedo above 1 by more than this marks a fit: ten times the quadrature's worst error on a
-/// sharp lobe (tests/albedo.rs).
-pub const ALBEDO_MARGIN: f64 = 1e-3;
+pub use crate::model::fitfile::ALBEDO_MARGIN;
 
 /// A model whose albedo by the coarse rule ([`coarse_albedos`]) is at most this share of
 /// 1 + [`ALBEDO_MARGIN`] at every θi passes rule 2 without the fine quadrature: the coarse
-/// rule is within 1 % of the fine one on every model tested (tests/albedo.rs), five times
+/// rule is within 1 % of the fine one on every model tested (tests/it/albedo.rs), five times
 /// less than this slack, so the verdict is the fine quadrature's. Above it (or not a number),
 /// the fine quadrature decides.
 pub const COARSE_PASS: f64 = 0.95;

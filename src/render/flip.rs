@@ -9,7 +9,7 @@
 //! p_t = 0.95), and the edge and point features of the luminance (first and second
 //! derivatives of a Gaussian of σ = ½ w ppd, w = 0.082; §4.3), error = ΔE_c^(1 − ΔE_f).
 //! Filters clamp at the image's border and sum in NVIDIA's order, so the numbers are NVIDIA's
-//! (`tests/flip.rs` compares them with the `nv-flip` crate).
+//! (`tests/it/flip.rs` compares them with the `nv-flip` crate).
 //!
 //! A reference compared with many images ([`FlipReference`]) keeps its filtered colours and
 //! features; each comparison filters the test image only around the pixels where the two

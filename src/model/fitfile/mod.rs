@@ -17,7 +17,7 @@ use crate::model::{Distribution, ModelKind};
 
 /// Directional albedo above 1 by more than this marks a fit not usable (`fit::physical`,
 /// rule 2), and a scene material given by `params` is rendered with a warning: ten times the
-/// albedo quadrature's worst error on a sharp lobe (tests/albedo.rs).
+/// albedo quadrature's worst error on a sharp lobe (tests/it/albedo.rs).
 pub const ALBEDO_MARGIN: f64 = 1e-3;
 
 /// A fit file that cannot be used, with the fix.
