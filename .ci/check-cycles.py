@@ -7,13 +7,29 @@ of their nearest common ancestor (so `fit::lsq` naming `fit::argmin_peer::solve`
 lsq -> argmin_peer, and `render::scene` naming `fit::pick` is render -> fit). A parent naming its
 own child, or a child its parent, is how Rust modules are built and is not counted; a name a
 module re-exports (`pub use`) is followed to the module that defines it. Unit tests
-(from `#[cfg(test)]` to the end of a file) are left out. Prints every cycle; exits 1 if any.
+(from `#[cfg(test)]` to the end of a file) are left out. The library's top-level modules also
+keep the data's path (LAYERS): none names a module of a later layer. Prints every cycle and
+every such edge; exits 1 if any.
 """
 import os
 import re
 import sys
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "src")
+
+
+# The data's path, lowest first: a top-level module may name modules of its own or an earlier
+# layer only.
+LAYERS = [
+    {"support"},
+    {"data"},
+    {"model"},
+    {"simulate", "fit"},
+    {"export", "plot", "render"},
+    {"scene", "inverse"},
+    {"choose", "study"},
+    {"report"},
+]
 
 
 def module_of(path):
@@ -159,8 +175,15 @@ def main():
         for comp in out:
             where = "::".join(parent) or "crate"
             cycles.append(f"{where}: {' <-> '.join(comp)}")
+    layer = {m: i for i, ms in enumerate(LAYERS) for m in ms}
+    for a, bs in sorted(edges.get((), {}).items()):
+        for b in sorted(bs):
+            if a not in layer or b not in layer:
+                cycles.append(f"crate: {a} or {b} is in no layer of .ci/check-cycles.py's LAYERS")
+            elif layer[b] > layer[a]:
+                cycles.append(f"crate: {a} names {b}, a later stage of the data's path")
     for c in cycles:
-        print(f"import cycle in {c}", file=sys.stderr)
+        print(f"import cycle or layering in {c}", file=sys.stderr)
     return 1 if cycles else 0
 
 

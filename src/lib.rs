@@ -4,10 +4,11 @@
 //!
 //! The data flows through the modules in order: [`data`] (samples and loaders) →
 //! [`model`] (the BRDFs of Phong 1975, Blinn 1977 and GGX–Smith, with analytic gradients) →
-//! fit, plot, render, choose and report. [`simulate()`] makes synthetic samples. The items most
-//! programs need are re-exported here; modules marked hidden in these docs (`output`,
-//! `setting`, `fit::lsq`, `fit::problem`, `data::merl`) are public only because the binary
-//! and the integration tests are separate crates, and are not library API.
+//! fit, plot, render, scene, choose and report. [`simulate()`] makes synthetic samples. The items most
+//! programs need are re-exported here; [`support`] is the plumbing below them all. Modules marked
+//! hidden in these docs (`support::input`, `support::setting`, `fit::lsq`, `fit::problem`,
+//! `data::merl`) are public only because the binary and the integration tests are separate
+//! crates, and are not library API.
 //!
 //! Fitting Blinn's Torrance–Sparrow model to samples from Rust:
 //!
@@ -33,27 +34,21 @@
 // `!(x <= limit)` is deliberate: it is true for NaN, which must count as failing a test.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+// The data's path: data → model → fit → plot / render → scene → choose → report; support is
+// the plumbing below them all.
 pub mod choose;
 pub mod data;
 pub mod export;
 pub mod fit;
 pub mod inverse;
-pub(crate) mod lanes;
 pub mod model;
-// Public for the binary and the integration tests (separate crates), not library API.
-#[doc(hidden)]
-pub mod input;
-pub mod output;
 pub mod plot;
-mod png;
 pub mod render;
 pub mod report;
 pub mod scene;
-// Public for the binary and the integration tests (separate crates), not library API.
-#[doc(hidden)]
-pub mod setting;
 pub mod simulate;
 pub mod study;
+pub mod support;
 
 /// Tell the C allocator (glibc's malloc) to keep freed memory for reuse, once at the start of
 /// a program: blocks up to 32 MB (a million rows' geometry column is 8 MB) come from its heaps
@@ -113,5 +108,5 @@ pub use fit::{FitError, FitOptions, FitResult, fit};
 pub use model::{Distribution, Geometry, Model, ModelKind};
 pub use render::Scene;
 pub use report::{ReportOptions, report};
-pub use setting::Setting;
 pub use simulate::simulate;
+pub use support::setting::Setting;

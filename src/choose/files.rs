@@ -15,11 +15,11 @@ pub fn write(
     result: &ChooseResult,
     images: &[CaseImages],
 ) -> anyhow::Result<Vec<std::path::PathBuf>> {
-    use crate::output::write_bytes_atomic;
+    use crate::support::output::write_bytes_atomic;
     // The cases' directories in order (the list of directories created stays in case
     // order), then each case's files in parallel; the paths in case order.
     for case in &result.cases {
-        crate::output::create_dir(&dir.join(&case.case))?;
+        crate::support::output::create_dir(&dir.join(&case.case))?;
     }
     let per_case = result
         .cases
@@ -47,7 +47,7 @@ fn write_case(
     imgs: &CaseImages,
     threshold: &ThresholdJson,
 ) -> anyhow::Result<Vec<std::path::PathBuf>> {
-    use crate::output::write_bytes_atomic;
+    use crate::support::output::write_bytes_atomic;
     // The renders' PNG and EXR encodings in parallel, beside the error map, the sheet and
     // the chart (each file is written whole, so the order of work is free); the paths in
     // render order, then the others.

@@ -7,7 +7,10 @@ use std::path::Path;
 
 /// Read a fit JSON strictly (one fit, or several under `fits`); the error names the file.
 pub(crate) fn read_fits(path: &Path) -> Result<Vec<brdfit::fit::FitResult>> {
-    let text = brdfit::input::read_to_string_limited(path, brdfit::input::Input::FitJson)?;
+    let text = brdfit::support::input::read_to_string_limited(
+        path,
+        brdfit::support::input::Input::FitJson,
+    )?;
     brdfit::fit::read_fit_file(&text).map_err(|e| anyhow!("{}: {e}", path.display()))
 }
 

@@ -197,7 +197,10 @@ pub(crate) fn run_inverse(args: InverseArgs) -> Result<()> {
         markers: false,
     }];
     if let Some(t) = truth {
-        let d = brdfit::input::read_to_string_limited(&t, brdfit::input::Input::Data)?;
+        let d = brdfit::support::input::read_to_string_limited(
+            &t,
+            brdfit::support::input::Input::Data,
+        )?;
         let pts = inverse::read_truth_csv(&d);
         series.push(brdfit::plot::LobeSeries {
             label: "true height".into(),

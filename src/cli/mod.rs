@@ -65,7 +65,7 @@ pub(crate) fn wrote(path: &Path) {
 /// Announce the folders created since the last announcement (`created DIR/`), leaving out
 /// those inside `within` (a report's own sub-folders, counted with its files).
 pub(crate) fn announce_created(within: Option<&Path>) {
-    for d in brdfit::output::take_created() {
+    for d in brdfit::support::output::take_created() {
         if !quiet() && within.is_none_or(|w| !d.starts_with(w) || d == w) {
             eprintln!("created {}/", d.display());
         }
@@ -153,7 +153,7 @@ pub(crate) fn save_image(img: &brdfit::render::Image, base: &Path) -> Result<()>
 
 /// Write bytes atomically and announce the file.
 pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
-    brdfit::output::write_bytes_atomic(path, bytes)
+    brdfit::support::output::write_bytes_atomic(path, bytes)
         .with_context(|| format!("writing {}", path.display()))?;
     wrote(path);
     Ok(())
@@ -384,7 +384,7 @@ pub(crate) fn main() -> ExitCode {
         Ok(c) => {
             QUIET.store(c.quiet, std::sync::atomic::Ordering::Relaxed);
             VERBOSE.store(c.verbose && !c.quiet, std::sync::atomic::Ordering::Relaxed);
-            brdfit::input::set_max_input_bytes(c.max_input_mb.map(|mb| mb << 20));
+            brdfit::support::input::set_max_input_bytes(c.max_input_mb.map(|mb| mb << 20));
             c
         }
         Err(e) => {
@@ -416,7 +416,7 @@ pub(crate) fn report_error(e: &anyhow::Error) {
 }
 
 /// The setting a library error names, if any.
-fn setting_of(e: &(dyn std::error::Error + 'static)) -> Option<brdfit::setting::Setting> {
+fn setting_of(e: &(dyn std::error::Error + 'static)) -> Option<brdfit::support::setting::Setting> {
     use brdfit::{data::DataError, fit::FitError, model::ModelError};
     if let Some(d) = e.downcast_ref::<DataError>() {
         return d.setting.clone();
@@ -428,8 +428,8 @@ fn setting_of(e: &(dyn std::error::Error + 'static)) -> Option<brdfit::setting::
 }
 
 /// The command-line spelling of a setting.
-pub(crate) fn flag(s: &brdfit::setting::Setting) -> String {
-    use brdfit::setting::Setting;
+pub(crate) fn flag(s: &brdfit::support::setting::Setting) -> String {
+    use brdfit::support::setting::Setting;
     match s {
         Setting::NegativePolicy => {
             "--negative mask (treat as missing) or --negative clamp (set to 0)".into()

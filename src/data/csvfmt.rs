@@ -11,7 +11,7 @@
 //! value field marks a missing value.
 
 use super::{DataError, Dataset, NegativePolicy, Quantity, RowSink, io_error, open, parse_number};
-use crate::output::write_atomic;
+use crate::support::output::write_atomic;
 use std::io::{BufRead, BufReader, Write};
 use std::path::Path;
 
@@ -295,7 +295,7 @@ fn parse_header(
 /// how many lines they took.
 fn leading_comments(
     path: &Path,
-    reader: &mut BufReader<crate::input::Limited<std::fs::File>>,
+    reader: &mut BufReader<crate::support::input::Limited<std::fs::File>>,
 ) -> Result<(Vec<String>, u64), DataError> {
     let mut comments = Vec::new();
     let mut offset: u64 = 0;

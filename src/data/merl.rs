@@ -7,7 +7,7 @@
 //! using reciprocity (φd and φd + 180° share a cell). Negative cells are missing samples.
 
 use super::{DataError, Dataset, Quantity, io_error, open};
-use crate::output::write_atomic;
+use crate::support::output::write_atomic;
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::io::{Read, Write};
 use std::path::Path;
@@ -255,7 +255,7 @@ pub fn write_merl(ds: &Dataset, path: &Path) -> Result<(), DataError> {
             m,
             "reduce the data to one channel or to r, g, b first",
         )
-        .with_setting(crate::setting::Setting::Channel)
+        .with_setting(crate::support::setting::Setting::Channel)
     })?;
     write_atomic(path, |w: &mut dyn Write| {
         for d in [90i32, 90, 180] {

@@ -21,7 +21,7 @@ use std::fmt;
 use std::io::Read;
 use std::path::Path;
 
-pub use crate::input::{DataError, io_error};
+pub use crate::support::input::{DataError, io_error};
 pub use csvfmt::{load_directions, write_csv, write_csv_to};
 
 /// Unit direction for polar angle `theta` and azimuth `phi` (radians), N = +z.
@@ -615,7 +615,7 @@ impl<'a> RowSink<'a> {
                                 "reflectance cannot be negative; treat negative values as missing \
                                  (mask) or set them to 0 (clamp)",
                             )
-                            .with_setting(crate::setting::Setting::NegativePolicy));
+                            .with_setting(crate::support::setting::Setting::NegativePolicy));
                     }
                 }
             }
@@ -727,13 +727,15 @@ pub fn detect_format(path: &Path, head: &[u8]) -> Result<Format, DataError> {
         "unknown file format",
         "name the file .csv, .astm, .brdf or .binary, or choose the format (csv, astm, cornell, merl)",
     )
-    .with_setting(crate::setting::Setting::Format))
+    .with_setting(crate::support::setting::Setting::Format))
 }
 
-/// Open a data file for reading within the data size limit ([`crate::input`]), with errors
+/// Open a data file for reading within the data size limit ([`crate::support::input`]), with errors
 /// that say what to do.
-pub(crate) fn open(path: &Path) -> Result<crate::input::Limited<std::fs::File>, DataError> {
-    crate::input::open_limited(path, crate::input::Input::Data)
+pub(crate) fn open(
+    path: &Path,
+) -> Result<crate::support::input::Limited<std::fs::File>, DataError> {
+    crate::support::input::open_limited(path, crate::support::input::Input::Data)
 }
 
 /// Load a data file in any supported format.
@@ -770,7 +772,7 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Dataset, DataError> {
 
 /// Read a whole text file, accepting a UTF-8 BOM; invalid UTF-8 is an error with a fix.
 pub(crate) fn read_text(path: &Path) -> Result<String, DataError> {
-    crate::input::read_to_string_limited(path, crate::input::Input::Data)
+    crate::support::input::read_to_string_limited(path, crate::support::input::Input::Data)
 }
 
 /// Summary statistics for `brdfit info`.

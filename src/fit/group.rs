@@ -8,7 +8,7 @@ use super::result::{FitResult, UNCONVERGED};
 use super::setup::{ChannelRows, check_data, layout, problem};
 use super::solve::{self, search};
 use super::stats::{reported, uncertainty};
-use crate::setting::Setting;
+use crate::support::setting::Setting;
 use std::time::Instant;
 
 /// One fit of one channel, or a joint fit of several, through the stages in order (see the

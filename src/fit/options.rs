@@ -5,7 +5,7 @@ use super::lsq::{Limits, Method};
 use super::problem::Loss;
 use super::progress::Watch;
 use crate::model::{Distribution, ModelKind};
-use crate::setting::Setting;
+use crate::support::setting::Setting;
 
 /// A fit that cannot be run, with the fix.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -5,9 +5,9 @@
 use super::options::{FitError, FitOptions, Weighting, fit_error};
 use super::problem::{self, BrdfProblem, Loss, RowWriter, Rows, Slot, Transform};
 use crate::data::Dataset;
-use crate::lanes::{self, LANES};
 use crate::model::{Geometry, Model, ParamSpec, Role};
-use crate::setting::Setting;
+use crate::support::lanes::{self, LANES};
+use crate::support::setting::Setting;
 
 /// One channel's usable samples, converted to f_r.
 #[derive(Clone)]

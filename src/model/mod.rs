@@ -50,10 +50,10 @@ pub use text::{exact, readable, short, significant};
 
 impl ModelError {
     /// The setting that fixes the error, if it is one value.
-    pub fn setting(&self) -> Option<crate::setting::Setting> {
+    pub fn setting(&self) -> Option<crate::support::setting::Setting> {
         match self {
             ModelError::Missing { name, .. } | ModelError::OutOfBounds { name, .. } => {
-                Some(crate::setting::Setting::Value(name.to_string()))
+                Some(crate::support::setting::Setting::Value(name.to_string()))
             }
             ModelError::Unknown { .. } | ModelError::Order { .. } => None,
         }

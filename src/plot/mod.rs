@@ -16,7 +16,7 @@ mod slice;
 mod svg;
 mod xy;
 
-pub use crate::png::{encode_png, register_font_once};
+pub use crate::support::png::{encode_png, register_font_once};
 pub use albedo::{ALBEDO_AGREEMENT, ALBEDO_CELLS, albedo, albedo_chart, measured_albedo};
 pub use labels::{log_tick, needs_leader, place_label, tick};
 pub use lobe::{
@@ -29,7 +29,7 @@ pub use slice::{SliceChart, slice_grids};
 pub use svg::svg_text_to_paths;
 pub use xy::XyChart;
 
-use crate::output::write_bytes_atomic;
+use crate::support::output::write_bytes_atomic;
 use anyhow::{Result, anyhow};
 use plotters::coord::Shift;
 use plotters::prelude::*;

@@ -1,7 +1,7 @@
 //! SVG text as glyph outlines: every `<text>` plotters writes becomes a `<path>` of the
 //! embedded font, so an SVG looks the same on every machine.
 
-use crate::png::FONT;
+use crate::support::png::FONT;
 
 /// Replace every `<text>` element plotters writes with a `<path>` of the embedded font's
 /// glyph outlines, so an SVG looks the same on every machine without the font installed.

@@ -15,7 +15,7 @@ pub const PIXELS_PER_DEGREE: f32 = nv_flip::DEFAULT_PIXELS_PER_DEGREE;
 pub const DISPLAY_WHITE_NITS: f64 = 100.0;
 
 pub use super::flip::FlipReference;
-use crate::lanes::{self, LANES};
+use crate::support::lanes::{self, LANES};
 
 /// Per-pixel LDR-ꟻLIP error in [0, 1] between two 8-bit sRGB images (RGB, row-major), at
 /// [`PIXELS_PER_DEGREE`]: NVIDIA's numbers ([`super::flip`]), computed around the pixels where
@@ -39,7 +39,7 @@ const PQ_C2: f64 = 2413.0 / 4096.0 * 32.0;
 const PQ_C3: f64 = 2392.0 / 4096.0 * 32.0;
 
 /// [`pq`] of each lane, each power x^m as e^(m ln x) with the lanes' fdlibm `ln` and `exp`
-/// ([`crate::lanes`]): within 10⁻¹³ relative of [`pq`], far below the `f32` the error maps
+/// ([`crate::support::lanes`]): within 10⁻¹³ relative of [`pq`], far below the `f32` the error maps
 /// keep. Both are that far from the exact curve: the power m2 = 78.84 scales the rounding of
 /// its base (a few ulp) by 79, so an ulp's difference in y^m1 moves the two apart.
 #[inline(always)]

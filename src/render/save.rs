@@ -51,8 +51,8 @@ pub fn check_finite(img: &Image) -> anyhow::Result<()> {
 pub fn save(img: &Image, base: &std::path::Path) -> anyhow::Result<[std::path::PathBuf; 2]> {
     check_finite(img)
         .map_err(|e| anyhow::anyhow!("{}: {e}", base.with_extension("exr").display()))?;
-    let png = crate::png::encode_png(img.width, img.height, &to_srgb8(img))?;
-    crate::output::write_bytes_atomic(&base.with_extension("png"), &png)?;
+    let png = crate::support::png::encode_png(img.width, img.height, &to_srgb8(img))?;
+    crate::support::output::write_bytes_atomic(&base.with_extension("png"), &png)?;
     // The encoder's buffer at the uncompressed size (a growing one copies itself as it
     // doubles), and the pixels as one flat copy.
     let mut exr = std::io::Cursor::new(Vec::with_capacity(12 * img.pixels.len() + 4096));
@@ -62,7 +62,7 @@ pub fn save(img: &Image, base: &std::path::Path) -> anyhow::Result<[std::path::P
     image::DynamicImage::ImageRgb32F(buf)
         .write_to(&mut exr, image::ImageFormat::OpenExr)
         .map_err(|e| anyhow::anyhow!("EXR encoding failed: {e}"))?;
-    crate::output::write_bytes_atomic(&base.with_extension("exr"), exr.get_ref())?;
+    crate::support::output::write_bytes_atomic(&base.with_extension("exr"), exr.get_ref())?;
     Ok([base.with_extension("png"), base.with_extension("exr")])
 }
 

@@ -132,7 +132,7 @@ pub fn contact_sheet(images: &[(String, Image)]) -> anyhow::Result<Vec<u8>> {
         }
     }
     {
-        crate::png::register_font_once();
+        crate::support::png::register_font_once();
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         let font = ("sans-serif", 16).into_font();
         let t = |s: &str, x: u32, y: u32, size: f64| {
@@ -189,5 +189,5 @@ pub fn contact_sheet(images: &[(String, Image)]) -> anyhow::Result<Vec<u8>> {
         root.present()
             .map_err(|e| anyhow::anyhow!("drawing failed: {e:?}"))?;
     }
-    crate::png::encode_png(w, h, &buf)
+    crate::support::png::encode_png(w, h, &buf)
 }

@@ -7,7 +7,7 @@ use super::{DataSet, ReportOptions, is_synthetic};
 use crate::data::Dataset;
 use crate::fit::FitResult;
 use crate::model::Model;
-use crate::output::write_bytes_atomic;
+use crate::support::output::write_bytes_atomic;
 use crate::{plot, render};
 use anyhow::Result;
 use std::fmt::Write as _;

@@ -5,7 +5,7 @@ use super::doc::{Doc, rel};
 use super::progress::step_at;
 use super::{DataSet, REPORT_VERIFY, fit_json, ts_index};
 use crate::fit::{self, FitOptions, FitResult};
-use crate::output::write_bytes_atomic;
+use crate::support::output::write_bytes_atomic;
 use anyhow::{Context, Result};
 use rayon::prelude::*;
 use serde_json::{Value, json};

@@ -124,7 +124,8 @@ struct DataSet<'a> {
 /// timings.json, and one folder per data set. The steps are the functions below, in order.
 pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
     let root = &opts.out;
-    crate::output::create_dir(root).with_context(|| format!("creating {}", root.display()))?;
+    crate::support::output::create_dir(root)
+        .with_context(|| format!("creating {}", root.display()))?;
     let t_all = Instant::now();
     let mut doc = Doc::default();
     let mut results = Vec::new();

@@ -2,7 +2,7 @@
 //! `results.json` and `timings.json`.
 
 use super::doc::{Doc, esc};
-use crate::output::write_bytes_atomic;
+use crate::support::output::write_bytes_atomic;
 use anyhow::Result;
 use serde_json::{Value, json};
 use std::fmt::Write as _;

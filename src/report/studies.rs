@@ -6,8 +6,8 @@ use super::doc::{Doc, md_table_to_html, save_chart};
 use super::progress::{step, step_at};
 use crate::fit::FitResult;
 use crate::model::ModelKind;
-use crate::output::write_bytes_atomic;
 use crate::study;
+use crate::support::output::write_bytes_atomic;
 use anyhow::Result;
 use serde_json::{Value, json};
 

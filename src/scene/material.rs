@@ -233,8 +233,9 @@ fn fit_material(
 ) -> Result<(Model, DVec3, DVec3)> {
     use crate::fit::{pick, read_fit_file};
     use crate::model::fitfile::Want;
-    let text = crate::input::read_to_string_limited(p, crate::input::Input::FitJson)
-        .with_context(|| format!("material {name}: cannot read fit {}", p.display()))?;
+    let text =
+        crate::support::input::read_to_string_limited(p, crate::support::input::Input::FitJson)
+            .with_context(|| format!("material {name}: cannot read fit {}", p.display()))?;
     let at = |e: &dyn std::fmt::Display| anyhow!("material {name}: {}: {e}", p.display());
     let fits = read_fit_file(&text).map_err(|e| at(&e))?;
     let model = match &m.fit_model {

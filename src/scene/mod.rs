@@ -91,7 +91,8 @@ pub fn load_scene(path: &Path) -> Result<Scene> {
 /// [`load_scene`] with the notes of [`parse_scene_noted`] (what was chosen for the user);
 /// its warnings come as `warning: FILE:LINE: …`, ready to show.
 pub fn load_scene_noted(path: &Path) -> Result<(Scene, Vec<String>)> {
-    let text = crate::input::read_to_string_limited(path, crate::input::Input::Scene)?;
+    let text =
+        crate::support::input::read_to_string_limited(path, crate::support::input::Input::Scene)?;
     let dir = path.parent().unwrap_or(Path::new("."));
     let mut notes = Vec::new();
     let s = parse_scene_noted(&text, dir, &mut notes).map_err(|e| {

@@ -7,10 +7,11 @@ use glam::DVec3;
 use std::path::Path;
 
 /// Read the `v` and `f` lines of an OBJ file (polygons fanned into triangles; negative
-/// indices count from the end), within the mesh size limit ([`crate::input`]) and at most
+/// indices count from the end), within the mesh size limit ([`crate::support::input`]) and at most
 /// [`MAX_TRIANGLES`] triangles.
 pub fn read_obj(path: &Path) -> Result<Mesh> {
-    let text = crate::input::read_to_string_limited(path, crate::input::Input::Mesh)?;
+    let text =
+        crate::support::input::read_to_string_limited(path, crate::support::input::Input::Mesh)?;
     let mut verts: Vec<DVec3> = Vec::new();
     let mut tris = Vec::new();
     for (ln, line) in text.lines().enumerate() {

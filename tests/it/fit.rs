@@ -682,7 +682,7 @@ fn impossible_fits_are_errors_not_panics() {
     let e = fit::fit(&one(0.3), &ts()).unwrap_err();
     assert!(
         e.message.contains("θi = 28.65°")
-            && e.setting == Some(brdfit::setting::Setting::Hold("n".into())),
+            && e.setting == Some(brdfit::support::setting::Setting::Hold("n".into())),
         "{e}"
     );
     // ... is fine with n held.

@@ -92,7 +92,7 @@ fn assert_same(a: &Dataset, b: &Dataset, what: &str) {
 #[test]
 fn every_format_round_trips_through_csv() {
     // A whole MERL table as CSV is 147 MB, above the 64 MiB default data limit.
-    brdfit::input::set_max_input_bytes(Some(256 << 20));
+    brdfit::support::input::set_max_input_bytes(Some(256 << 20));
     let dir = tempfile::tempdir().unwrap();
     let merl_file = dir.path().join("mgo.binary");
     write_model_merl(&Model::blinn_mgo(), &merl_file);
@@ -131,7 +131,7 @@ fn write_model_merl(m: &Model, path: &Path) -> Dataset {
 #[test]
 fn merl_round_trips_through_its_writer() {
     // A whole MERL table as CSV is 147 MB, above the 64 MiB default data limit.
-    brdfit::input::set_max_input_bytes(Some(256 << 20));
+    brdfit::support::input::set_max_input_bytes(Some(256 << 20));
     let dir = tempfile::tempdir().unwrap();
     let p1 = dir.path().join("a.binary");
     let p2 = dir.path().join("b.binary");
@@ -223,7 +223,7 @@ fn negative_policies() {
         e.line.is_some()
             && e.message.contains("negative")
             && e.fix.contains("mask")
-            && e.setting == Some(brdfit::setting::Setting::NegativePolicy),
+            && e.setting == Some(brdfit::support::setting::Setting::NegativePolicy),
         "{e}"
     );
     // The first negative is on line 4 of the file (first data row, blue -0.354828).

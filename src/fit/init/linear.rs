@@ -5,7 +5,7 @@
 
 use crate::fit::lsq;
 use crate::fit::problem::{BrdfProblem, Loss, Rows, Slot};
-use crate::lanes::{self, LANES};
+use crate::support::lanes::{self, LANES};
 
 /// A specular basis s row by row, as the product of two factors (Torrance–Sparrow's term in
 /// n times its term in c, or the basis times ones), so no grid point allocates its basis.

@@ -5,8 +5,8 @@
 
 use super::linear::Basis;
 use crate::fit::problem::{self, Rows};
-use crate::lanes::LANES;
 use crate::model::Distribution;
+use crate::support::lanes::LANES;
 
 /// Torrance–Sparrow's specular basis s = D(c)·F(n)·G/(π N·L N·E) at every point of a grid of
 /// n (`ns`) and the distribution's shape parameters (`cs`: each point's values, c for D1–D3,
@@ -564,7 +564,11 @@ mod tests {
     fn separable_grid_sums_match_the_model_point_by_point() {
         let rows = spread_rows();
         let m = rows.len();
-        assert_ne!(m % crate::lanes::LANES, 0, "{m} rows fill whole blocks");
+        assert_ne!(
+            m % crate::support::lanes::LANES,
+            0,
+            "{m} rows fill whole blocks"
+        );
         let w: Vec<f64> = (0..m).map(|i| 0.5 + (i % 7) as f64 / 7.0).collect();
         let wf: Vec<f64> = (0..m).map(|i| w[i] * (0.2 + (i % 5) as f64)).collect();
         for dist in [Distribution::D3, Distribution::D1, Distribution::Abc] {

@@ -6,8 +6,8 @@ use super::lane_terms::TsD3;
 use super::loss::Loss;
 use super::rows::Rows;
 use crate::fit::lsq::Robust;
-use crate::lanes::{self, LANES};
 use crate::model::{Distribution, MAX_PARAMS, Model, ModelKind};
+use crate::support::lanes::{self, LANES};
 
 /// The GGX lobe D G1(L) G1(E)/(4 N·L N·E) of roughness `alpha` (GGX–Smith's f_r per unit
 /// ps·F; Walter et al. 2007, eqs. 33 and 34) at rows `range`, 0 where N·H ≤ 0 or E·H ≤ 0.

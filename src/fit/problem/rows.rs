@@ -1,8 +1,8 @@
 //! The rows of a fit: each sample's parameter-independent geometry and data term, stored by
 //! column, filled in parallel, with GGX's terms derived on first use.
 
-use crate::lanes::{self, LANES};
 use crate::model::Geometry;
+use crate::support::lanes::{self, LANES};
 
 /// One residual's data: the parameter-independent geometry and the data term.
 #[derive(Clone, Copy, Debug)]

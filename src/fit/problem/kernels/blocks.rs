@@ -7,8 +7,8 @@ use crate::fit::lsq::Robust;
 use crate::fit::problem::lane_terms::{TsD3, fresnel};
 use crate::fit::problem::loss::Loss;
 use crate::fit::problem::rows::Rows;
-use crate::lanes::{self, LANES};
 use crate::model::{Distribution, MAX_PARAMS, Model, ModelKind};
+use crate::support::lanes::{self, LANES};
 use std::f64::consts::FRAC_1_PI;
 
 /// A model with a lane kernel here.

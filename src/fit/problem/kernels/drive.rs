@@ -5,8 +5,8 @@
 use crate::fit::lsq::Robust;
 use crate::fit::problem::loss::PIXEL_CLIP_WIDTH;
 use crate::fit::problem::rows::Rows;
-use crate::lanes::{self, LANES};
 use crate::model::MAX_PARAMS;
+use crate::support::lanes::{self, LANES};
 
 /// The most parameters a lane kernel handles (GGX–Smith with two lobes).
 const MAX_K: usize = 6;

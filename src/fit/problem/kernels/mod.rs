@@ -3,7 +3,7 @@
 //! Torrance–Sparrow with D1, D2, D3 (Blinn 1977, "Facet distribution functions") and Löw et al.
 //! 2012's ABC lobe (eq. 6 with A = 1), GGX–Smith (Walter et al. 2007, eqs. 33 and 34 with Smith's
 //! G1) and its two-lobe form, for the log and the linear loss, with or without a robust weight
-//! (Huber, Cauchy). Each computes, [`LANES`](crate::lanes::LANES) rows at a time and without
+//! (Huber, Cauchy). Each computes, [`LANES`](crate::support::lanes::LANES) rows at a time and without
 //! branches, what the row path through [`Model::brdf_grad`] computes: Σ ρ(r), Jᵀr and JᵀJ in model
 //! parameters. Each lane keeps its own sums, added in lane order at the end, so the result does not
 //! depend on the instruction set; the entries are compiled for AVX-512 and AVX2 as well and picked
@@ -73,9 +73,9 @@ mod tests {
     use super::*;
     use crate::fit::problem::Row;
     use crate::fit::problem::passes::kernel_rows_any;
-    use crate::lanes::LANES;
     use crate::model::Geometry;
     use crate::model::{Distribution, ModelKind};
+    use crate::support::lanes::LANES;
     use drive::pixel_lanes;
     use rand::{Rng, SeedableRng};
 

@@ -5,7 +5,7 @@
 use anyhow::{Result, anyhow};
 
 /// The embedded font's TrueType bytes (DejaVu Sans, shipped with the crate).
-pub(crate) static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
+pub(crate) static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 
 /// Register the embedded font with plotters (once per process).
 pub fn register_font_once() {

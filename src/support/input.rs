@@ -78,7 +78,7 @@ fn too_large(path: &Path, kind: Input, size: Option<u64>) -> DataError {
         ),
         "check that this is the intended file; if it is, raise the input size limit",
     )
-    .with_setting(crate::setting::Setting::MaxInputSize)
+    .with_setting(crate::support::setting::Setting::MaxInputSize)
 }
 
 /// A reader that delivers at most `limit` bytes of a file and fails with an I/O error
@@ -220,7 +220,7 @@ pub fn read_to_string_limited(path: &Path, kind: Input) -> Result<String, DataEr
                 message,
                 "save the file as UTF-8 text, or choose the format merl for a MERL binary",
             )
-            .with_setting(crate::setting::Setting::Format)
+            .with_setting(crate::support::setting::Setting::Format)
         } else {
             DataError::new(
                 path,
@@ -245,7 +245,7 @@ pub struct DataError {
     /// What the user should do.
     pub fix: String,
     /// The setting that fix changes, if it is one.
-    pub setting: Option<crate::setting::Setting>,
+    pub setting: Option<crate::support::setting::Setting>,
 }
 
 impl DataError {
@@ -266,7 +266,7 @@ impl DataError {
     }
 
     /// The same error, naming the setting its fix changes.
-    pub fn with_setting(mut self, s: crate::setting::Setting) -> Self {
+    pub fn with_setting(mut self, s: crate::support::setting::Setting) -> Self {
         self.setting = Some(s);
         self
     }
@@ -294,7 +294,10 @@ mod tests {
         // /dev/zero has metadata length 0 and never ends: only the limit + 1 read stops it.
         let e = read_limited(Path::new("/dev/zero"), Input::Scene).unwrap_err();
         assert!(e.message.contains("more than 1048576 bytes"), "{e}");
-        assert_eq!(e.setting, Some(crate::setting::Setting::MaxInputSize));
+        assert_eq!(
+            e.setting,
+            Some(crate::support::setting::Setting::MaxInputSize)
+        );
     }
 
     #[test]

@@ -18,6 +18,6 @@ pub enum Setting {
     Value(String),
     /// The largest angle of the samples used.
     MaxTheta,
-    /// The size limit of input files ([`crate::input`]).
+    /// The size limit of input files ([`crate::support::input`]).
     MaxInputSize,
 }
