@@ -182,23 +182,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
             load,
             output,
         } => {
-            let q = match quantity.as_str() {
-                "intensity" => plot::LobeQuantity::Intensity,
-                "brdf" => plot::LobeQuantity::Brdf,
-                _ => {
-                    bail!("unknown quantity '{quantity}'\n  fix: use --quantity intensity or brdf")
-                }
-            };
-            if !(0.0..=90.0).contains(&tolerance) {
-                bail!(
-                    "--tolerance {tolerance}: not an angle in [0°, 90°]\n  fix: e.g. --tolerance 2.5"
-                );
-            }
-            if let Some(t) = theta_i.iter().find(|t| !(0.0..90.0).contains(*t)) {
-                bail!(
-                    "--theta-i {t}: not an angle of incidence in [0°, 90°)\n  fix: e.g. --theta-i 30,70"
-                );
-            }
+            let q = lobe_quantity(&quantity, tolerance, &theta_i)?;
             let ds = data
                 .as_ref()
                 .map(|d| data_for_fits(&load, d, &fit))
@@ -206,16 +190,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
             // With --fit and no --set, --model picks the fit file's model.
             let want = fit_want(&model, &fit, &load, ds.is_some(), allow_unusable);
             let plotted = ds.as_ref().map(|d| d.channels[0].name.clone());
-            let mut models = Vec::new();
-            for f in &fit {
-                let r = pick_fit(f, &want, plotted.as_deref())?;
-                let channel = if brdfit::fit::is_unnamed_channel(&r.channel) {
-                    String::new()
-                } else {
-                    format!(" ({})", r.channel)
-                };
-                models.push((format!("{} fit{channel}", r.fit.label()), r.model));
-            }
+            let mut models = fitted_models(&fit, &want, plotted.as_deref())?;
             if let Some(m) = analytic(&model, &fit)? {
                 models.push((format!("{m}"), m));
             }
@@ -314,16 +289,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                 (None, None) => bail!("no model\n  fix: give --fit FILE or --model with --set"),
             };
             let measured = match (&data, &ds) {
-                (Some(d), Some(ds)) => {
-                    let est = plot::measured_albedo(ds, 0);
-                    if est.is_empty() {
-                        eprintln!(
-                            "note: the samples of {} do not cover and resolve the outgoing hemisphere at any θi (6 × 16 cells of equal projected solid angle, each with two samples or more, none outweighing the rest of its cell, and the same value with the cells turned by half a sector): no albedo estimate from them",
-                            d.display()
-                        );
-                    }
-                    est
-                }
+                (Some(d), Some(ds)) => measured_albedo(d, ds),
                 _ => vec![],
             };
             let (chart, pts) = plot::albedo_chart(&label, &m, &measured);
@@ -341,6 +307,59 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// `plot lobe`'s quantity, with its tolerance and angles of incidence checked.
+fn lobe_quantity(
+    quantity: &str,
+    tolerance: f64,
+    theta_i: &[f64],
+) -> Result<brdfit::plot::LobeQuantity> {
+    use brdfit::plot::LobeQuantity;
+    let q = match quantity {
+        "intensity" => LobeQuantity::Intensity,
+        "brdf" => LobeQuantity::Brdf,
+        _ => bail!("unknown quantity '{quantity}'\n  fix: use --quantity intensity or brdf"),
+    };
+    if !(0.0..=90.0).contains(&tolerance) {
+        bail!("--tolerance {tolerance}: not an angle in [0°, 90°]\n  fix: e.g. --tolerance 2.5");
+    }
+    if let Some(t) = theta_i.iter().find(|t| !(0.0..90.0).contains(*t)) {
+        bail!("--theta-i {t}: not an angle of incidence in [0°, 90°)\n  fix: e.g. --theta-i 30,70");
+    }
+    Ok(q)
+}
+
+/// Each fit file's picked model, labelled with its fit and channel, for a chart's legend.
+fn fitted_models(
+    fits: &[PathBuf],
+    want: &brdfit::fit::Want,
+    plotted: Option<&str>,
+) -> Result<Vec<(String, brdfit::Model)>> {
+    let mut models = Vec::new();
+    for f in fits {
+        let r = pick_fit(f, want, plotted)?;
+        let channel = if brdfit::fit::is_unnamed_channel(&r.channel) {
+            String::new()
+        } else {
+            format!(" ({})", r.channel)
+        };
+        models.push((format!("{} fit{channel}", r.fit.label()), r.model));
+    }
+    Ok(models)
+}
+
+/// The albedo estimated from the samples of `ds` (read from `path`), said on stderr when the
+/// samples do not allow one.
+fn measured_albedo(path: &Path, ds: &brdfit::Dataset) -> Vec<(f64, f64)> {
+    let est = brdfit::plot::measured_albedo(ds, 0);
+    if est.is_empty() {
+        eprintln!(
+            "note: the samples of {} do not cover and resolve the outgoing hemisphere at any θi (6 × 16 cells of equal projected solid angle, each with two samples or more, none outweighing the rest of its cell, and the same value with the cells turned by half a sector): no albedo estimate from them",
+            path.display()
+        );
+    }
+    est
 }
 
 /// What `plot lobe|albedo` ask of their fit files: `--model` (and `--distribution`) pick the
