@@ -26,8 +26,8 @@ LAYERS = [
     {"model"},
     {"simulate", "fit"},
     {"export", "plot", "render"},
-    {"scene", "inverse"},
-    {"choose", "study"},
+    {"scene"},
+    {"choose", "study", "inverse"},
     {"report"},
 ]
 
