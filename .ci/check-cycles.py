@@ -5,8 +5,11 @@ Every path a source file names (`crate::a::b`, `super::c`, `self::d`, a `use` gr
 to the module it points into; each reference becomes an edge between the two modules' children
 of their nearest common ancestor (so `fit::lsq` naming `fit::argmin_peer::solve` is the edge
 lsq -> argmin_peer, and `render::scene` naming `fit::pick` is render -> fit). A parent naming its
-own child, or a child its parent, is how Rust modules are built and is not counted. Unit tests
+own child, or a child its parent, is how Rust modules are built and is not counted. A name a
+module re-exports (`pub use child::Item;` in `model/mod.rs`) is followed to the module that
+defines it, so `super::Item` in a sibling of `child` is the edge to `child`. Unit tests
 (from `#[cfg(test)]` to the end of a file) are left out. Prints every cycle; exits 1 if any.
+`--edges` also prints every edge between siblings, one `parent: from -> to` a line.
 """
 import os
 import re
@@ -49,6 +52,50 @@ def expand_use(body):
     return [p for part in parts if part.strip() for p in expand_use(prefix + part.strip())]
 
 
+def reexports_of(text):
+    """Names a module re-exports (`pub use`, `pub(crate) use`...) -> the path each names."""
+    out = {}
+    for m in re.finditer(r"\bpub(?:\([^)]*\))?\s+use\s+([^;]+);", text):
+        for p in expand_use(m.group(1)):
+            alias = re.search(r"\bas\s+(\w+)\s*$", p)
+            p = p.split(" as ")[0].strip()
+            name = alias.group(1) if alias else p.split("::")[-1].strip()
+            if name not in ("*", "self"):
+                out[name] = p
+    return out
+
+
+def resolve(mod, p, modules, reexports, depth=0):
+    """The module a path named in module `mod` points into, or None if outside the crate."""
+    segs = [s.strip() for s in p.split("::") if s.strip()]
+    if not segs or segs[0] not in ("crate", "super", "self"):
+        if segs and mod + (segs[0],) in modules:
+            segs = ["self"] + segs  # a child named without `self::`
+        else:
+            return None
+    base = list(mod)
+    if segs[0] == "crate":
+        base, segs = [], segs[1:]
+    else:
+        while segs and segs[0] in ("super", "self"):
+            if segs[0] == "super":
+                base = base[:-1]
+            segs = segs[1:]
+    target = tuple(base)
+    rest = segs
+    for s in segs:
+        if target + (s,) in modules:
+            target = target + (s,)
+            rest = rest[1:]
+        else:
+            break
+    if rest and depth < 8 and rest[0] in reexports.get(target, {}):
+        followed = resolve(target, reexports[target][rest[0]], modules, reexports, depth + 1)
+        if followed is not None:
+            return followed
+    return target
+
+
 def main():
     files = {}
     for d, _, fs in os.walk(ROOT):
@@ -56,34 +103,20 @@ def main():
             if f.endswith(".rs"):
                 files[module_of(os.path.join(d, f))] = os.path.join(d, f)
     modules = set(files)
+    texts = {mod: strip(open(path, encoding="utf-8").read()) for mod, path in files.items()}
+    reexports = {mod: reexports_of(text) for mod, text in texts.items()}
     edges = {}
     for mod, path in files.items():
         if mod and mod[0] == "cli" or path.endswith("main.rs"):
             continue  # the binary's own modules
-        text = strip(open(path, encoding="utf-8").read())
+        text = texts[mod]
         paths = []
         for m in re.finditer(r"\buse\s+([^;]+);", text):
             paths += expand_use(m.group(1))
         paths += re.findall(r"\b((?:crate|super|self)(?:::\w+)+)", text)
         for p in paths:
-            segs = [s.strip() for s in p.split("::") if s.strip()]
-            if not segs or segs[0] not in ("crate", "super", "self"):
-                continue
-            base = list(mod)
-            if segs[0] == "crate":
-                base, segs = [], segs[1:]
-            else:
-                while segs and segs[0] in ("super", "self"):
-                    if segs[0] == "super":
-                        base = base[:-1]
-                    segs = segs[1:]
-            target = tuple(base)
-            for s in segs:
-                if target + (s,) in modules:
-                    target = target + (s,)
-                else:
-                    break
-            if target == mod:
+            target = resolve(mod, p, modules, reexports)
+            if target is None or target == mod:
                 continue
             k = 0
             while k < min(len(mod), len(target)) and mod[k] == target[k]:
@@ -92,6 +125,11 @@ def main():
                 continue  # parent and child
             parent = mod[:k]
             edges.setdefault(parent, {}).setdefault(mod[k], set()).add(target[k])
+    if "--edges" in sys.argv[1:]:
+        for parent, graph in sorted(edges.items()):
+            for v in sorted(graph):
+                for w in sorted(graph[v]):
+                    print(f"{'::'.join(parent) or 'crate'}: {v} -> {w}")
     cycles = []
     for parent, graph in sorted(edges.items()):
         # Tarjan's strongly connected components.
