@@ -30,7 +30,7 @@ pub(super) const ALPHA: ParamSpec = ParamSpec {
 };
 
 /// The index of the Fresnel term, as in Torrance–Sparrow.
-const N: ParamSpec = super::torrance_sparrow::N;
+const N: ParamSpec = super::param::N;
 
 /// The parameters: alpha, n, ps, pd.
 pub(super) fn params(_: Distribution) -> &'static [ParamSpec] {

@@ -38,7 +38,7 @@ const PS2: ParamSpec = ParamSpec {
 };
 
 /// The index of the Fresnel term, as in Torrance–Sparrow, shared by both lobes.
-const N: ParamSpec = super::torrance_sparrow::N;
+const N: ParamSpec = super::param::N;
 
 /// Positions of alpha1, ps1, alpha2, ps2, n, pd.
 const A1: usize = 0;

@@ -1,6 +1,6 @@
 //! How a model maps onto the materials of Mitsuba 3 and pbrt-v4.
 
-use super::f0_from_n;
+use super::fresnel::f0_from_n;
 
 /// How a model maps onto the materials of Mitsuba 3 and pbrt-v4: the nearest one, with every
 /// value in the target's own terms, and whether the target's model is the same (`exact`) or

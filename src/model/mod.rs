@@ -25,15 +25,19 @@ mod lambert;
 mod phong;
 mod torrance_sparrow;
 
+pub use distribution::{Distribution, abc_half_width, d3_textured};
+pub use equal_beta::equal_beta_phong;
+pub(crate) use fresnel::GLSL_FRESNEL;
+pub use fresnel::{f0_from_n, fresnel, fresnel_dn, fresnel_trig, n_from_f0};
+use phong::Highlight;
 pub use phong::{fast_phong_pow, fast_phong_pow_da};
-pub use torrance_sparrow::{
-    Distribution, abc_half_width, d3_textured, equal_beta_phong, f0_from_n, fresnel, fresnel_dn,
-    fresnel_trig, n_from_f0,
-};
 
 use std::f64::consts::PI;
 use std::fmt;
 
+mod distribution;
+mod equal_beta;
+mod fresnel;
 mod geometry;
 mod kind;
 mod material;
@@ -290,7 +294,8 @@ impl Model {
         }
         match self.kind {
             ModelKind::Lambert => lambert::brdf_grad(self, g, grad),
-            ModelKind::Phong | ModelKind::BlinnPhong => phong::brdf_grad(self, g, grad),
+            ModelKind::Phong => phong::brdf_grad(self, Highlight::Mirror, g, grad),
+            ModelKind::BlinnPhong => phong::brdf_grad(self, Highlight::Half, g, grad),
             ModelKind::TorranceSparrow => torrance_sparrow::brdf_grad(self, g, grad),
             ModelKind::GgxSmith => ggx_smith::brdf_grad(self, g, grad),
             ModelKind::GgxSmith2 => ggx_smith_2::brdf_grad(self, g, grad),
@@ -313,18 +318,14 @@ impl Model {
     pub fn glsl(&self) -> String {
         match self.kind {
             ModelKind::Lambert => lambert::glsl(self),
-            ModelKind::Phong | ModelKind::BlinnPhong => phong::glsl(self),
+            ModelKind::Phong => phong::glsl(Highlight::Mirror),
+            ModelKind::BlinnPhong => phong::glsl(Highlight::Half),
             ModelKind::TorranceSparrow => torrance_sparrow::glsl(self),
             ModelKind::GgxSmith => ggx_smith::glsl(self),
             ModelKind::GgxSmith2 => ggx_smith_2::glsl(self),
         }
     }
 }
-/// GLSL of the exact Fresnel factor `F` of index `n` at `EdotH` ([`fresnel`], Blinn 1977
-/// eq. for F), squares written as products: GLSL's `pow` is undefined for a negative base, and
-/// (c(g + c) − 1)/(c(g − c) + 1) is negative below E·H ≈ 0.55 at n = 1.5.
-pub(crate) const GLSL_FRESNEL: &str = "    float g = sqrt(n * n + EdotH * EdotH - 1.0);\n    float fa = (g - EdotH) / (g + EdotH);\n    float fb = (EdotH * (g + EdotH) - 1.0) / (EdotH * (g - EdotH) + 1.0);\n    float F = 0.5 * fa * fa * (1.0 + fb * fb);\n";
-
 impl fmt::Display for Model {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{}", self.kind.label(self.dist))?;

@@ -1,5 +1,6 @@
 //! How a parameter is declared: its role, bounds, solver scale, initialisation grid and
-//! random-start range ([`ParamSpec`]), and the two declarations every model shares (ps, pd).
+//! random-start range ([`ParamSpec`]), the two declarations every model shares (ps, pd), and
+//! the two several models share (the Fresnel index n, the cosine exponent c1).
 
 use super::{Distribution, readable};
 
@@ -209,4 +210,38 @@ pub(crate) const PD: ParamSpec = ParamSpec {
     random: (1e-3, 1.0),
     absurd_above: f64::INFINITY,
     slider: (0.0, 1.0),
+};
+
+/// The index of refraction of a Fresnel term (torrance-sparrow, ggx-smith, ggx-smith-2).
+pub(crate) const N: ParamSpec = ParamSpec {
+    name: "n",
+    role: Role::Index,
+    meaning: "index of refraction of the Fresnel term (Blinn 1977, eq. for F)",
+    lo: 1.0 + 1e-4,
+    hi: 1e7,
+    scale: Scale::Log { offset: 1.0 },
+    // n − 1 from 0.003 (F0 ≈ 2e-6) to 3000 (F0 ≈ 0.9987, a metal's effective index).
+    grid: Grid::Values(&[
+        1.003, 1.007, 1.015, 1.03, 1.06, 1.12, 1.25, 1.5, 2.0, 3.0, 5.0, 9.0, 17.0, 41.0, 101.0,
+        401.0, 3001.0,
+    ]),
+    start: 1.5,
+    random: (1.01, 101.0),
+    absurd_above: 1e6,
+    slider: (1.0, 10.0),
+};
+
+/// Exponent of a cosine lobe: Phong's and Blinn–Phong's c1, and torrance-sparrow D1's.
+pub(crate) const C1: ParamSpec = ParamSpec {
+    name: "c1",
+    role: Role::Shape,
+    meaning: "exponent of the cosine lobe (larger = sharper)",
+    lo: 1e-3,
+    hi: 1e8,
+    scale: Scale::Log { offset: 0.0 },
+    grid: Grid::HalfWidth(Distribution::D1),
+    start: 10.0,
+    random: (0.3, 3e4),
+    absurd_above: f64::INFINITY,
+    slider: (1.0, 100.0),
 };

@@ -1,29 +1,19 @@
 //! Phong's model (Phong 1975): i = pd N·L + ps max(0, R·E)^c1, R = 2(N·L)N − L; and Blinn's
 //! form of it (Blinn 1977, his D1 as a highlight): i = pd N·L + ps max(0, N·H)^c1.
 
-use super::{
-    Distribution, Geometry, Grid, Material, Model, ModelKind, PD, PS, ParamSpec, Role, Scale,
-};
+use super::distribution::alpha_of_power;
+use super::param::C1;
+use super::{Distribution, Geometry, Material, Model, PD, PS, ParamSpec};
 use std::f64::consts::FRAC_1_PI;
 
-/// Exponent of a cosine lobe: Phong's and Blinn–Phong's c1, and D1's.
-pub(crate) const C1: ParamSpec = ParamSpec {
-    name: "c1",
-    role: Role::Shape,
-    meaning: "exponent of the cosine lobe (larger = sharper)",
-    lo: 1e-3,
-    hi: 1e8,
-    scale: Scale::Log { offset: 0.0 },
-    grid: Grid::HalfWidth(Distribution::D1),
-    start: 10.0,
-    random: (0.3, 3e4),
-    absurd_above: f64::INFINITY,
-    slider: (1.0, 100.0),
-};
-
-/// GGX roughness matched to a cosine power c: α = √(2/(c + 2)) (Walter et al. 2007).
-pub(super) fn alpha_of_power(c: f64) -> f64 {
-    (2.0 / (c + 2.0)).sqrt()
+/// Which cosine the highlight raises to c1: Phong's or Blinn's (the model kind's dispatch
+/// says which, so this file need not know the kinds).
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(super) enum Highlight {
+    /// R·E, R = 2(N·L)N − L (`phong`).
+    Mirror,
+    /// N·H (`blinn-phong`).
+    Half,
 }
 
 /// A GGX plastic with the Beckmann-matched roughness of c1 (no Fresnel term: index 1.5).
@@ -37,8 +27,8 @@ pub(super) fn material(m: &Model) -> Material {
 }
 
 /// The highlight x^c1 with x = R·E or N·H.
-pub(super) fn glsl(m: &Model) -> String {
-    if m.kind == ModelKind::Phong {
+pub(super) fn glsl(h: Highlight) -> String {
+    if h == Highlight::Mirror {
         "    vec3 R = reflect(-L, N);\n    float s = pow(max(dot(R, V), 0.0), c1);\n    return vec3(pd / PI + ps * s / (PI * NdotL));".into()
     } else {
         "    vec3 H = normalize(L + V);\n    float s = pow(max(dot(N, H), 0.0), c1);\n    return vec3(pd / PI + ps * s / (PI * NdotL));".into()
@@ -52,16 +42,12 @@ pub(super) fn params(_: Distribution) -> &'static [ParamSpec] {
 
 /// f_r = pd/π + ps x^c1/(π N·L) with x = R·E (Phong) or N·H (Blinn–Phong), and its gradient.
 #[inline(always)]
-pub(super) fn brdf_grad(m: &Model, g: &Geometry, grad: &mut [f64]) -> f64 {
+pub(super) fn brdf_grad(m: &Model, h: Highlight, g: &Geometry, grad: &mut [f64]) -> f64 {
     let (c1, ps, pd) = (m.p[0], m.p[1], m.p[2]);
-    let x = if m.kind == ModelKind::Phong {
-        g.re
-    } else {
-        g.nh
-    };
+    let x = if h == Highlight::Mirror { g.re } else { g.nh };
     let (s, ds) = if x <= 0.0 {
         (0.0, 0.0)
-    } else if let (Some(k), ModelKind::Phong) = (m.fast_pow, m.kind) {
+    } else if let (Some(k), Highlight::Mirror) = (m.fast_pow, h) {
         fast_phong_pow_da(x, c1, k)
     } else {
         let s = x.powf(c1);

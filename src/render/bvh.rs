@@ -1,7 +1,7 @@
 //! Triangle meshes and their bounding-volume hierarchy: building it and intersecting a ray
 //! with it.
 
-use super::Ray;
+use super::ray::Ray;
 use glam::DVec3;
 
 /// A triangle mesh with a bounding-volume hierarchy.

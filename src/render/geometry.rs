@@ -1,17 +1,9 @@
-//! Rays, shapes and lights: what a ray meets (spheres, planes, meshes inside bounding
+//! Shapes and lights: what a ray meets (spheres, planes, meshes inside bounding
 //! spheres), where a light is seen from a point, and the mirror and refracted directions.
 
 use super::Mesh;
+use super::ray::Ray;
 use glam::DVec3;
-
-/// A ray with unit direction.
-#[derive(Clone, Copy, Debug)]
-pub struct Ray {
-    /// Origin.
-    pub o: DVec3,
-    /// Unit direction.
-    pub d: DVec3,
-}
 
 /// Geometry of an object.
 #[derive(Clone, Debug)]

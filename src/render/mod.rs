@@ -19,12 +19,13 @@
 //! - Bounding spheres for every object and a BVH for triangle meshes; rayon over rows; linear
 //!   f32 OpenEXR and 8-bit sRGB PNG output; deterministic.
 //!
-//! The renderer's parts: [`Scene`] and the checks of its inputs here; shapes, lights and rays
-//! (`geometry`), the meshes' BVH (`bvh`), materials (`material`), the camera (`camera`),
+//! The renderer's parts: [`Scene`] and the checks of its inputs here; rays (`ray`), shapes and
+//! lights (`geometry`), the meshes' BVH (`bvh`), materials (`material`), the camera (`camera`),
 //! Whitted's ray tree (`trace`), anti-aliasing and the render loops (`sampling`), sRGB
 //! (`srgb`), image files (`save`), resampling (`resample`) and Figure 7's contact sheet
-//! (`sheet`), Figure 7's scenes (`preset`); scene files in [`crate::scene`], measured materials in [`measured`] and
-//! [`reconstruct`], image differences in [`compare`] and [`flip`].
+//! (`sheet`), Figure 7's scenes (`preset`); scene files in [`crate::scene`], measured
+//! materials in [`measured`] and [`reconstruct`], image differences in [`compare`] and
+//! [`flip`].
 
 mod bvh;
 mod camera;
@@ -35,6 +36,7 @@ mod gonio;
 mod material;
 pub mod measured;
 mod preset;
+mod ray;
 pub mod reconstruct;
 mod resample;
 mod sampling;
@@ -45,9 +47,10 @@ mod trace;
 
 pub use bvh::Mesh;
 pub use camera::{Camera, CameraFrame};
-pub use geometry::{Light, Object, Ray, Shape, reflect, refract};
+pub use geometry::{Light, Object, Shape, reflect, refract};
 pub use material::{Checker, Material, RoughnessTexture};
 pub use preset::{Lighting, fig7_scene};
+pub use ray::Ray;
 pub use resample::resize_catmull_rom;
 pub use sampling::{AntiAlias, Corners};
 pub use save::{MAX_PIXELS, MAX_SIDE, check_finite, check_image_size, rmse, save};
