@@ -89,6 +89,17 @@ pub(crate) fn run_inverse(args: InverseArgs) -> Result<()> {
         output,
     } = args;
     use brdfit::inverse;
+    // The three outputs are checked before any work: none may be an input (`-o photo` used to
+    // replace photo.png with the chart) or a device.
+    let base = output_base(&output, &["csv", "svg", "png"])?;
+    let inputs: Vec<&Path> = [Some(&image), image2.as_ref(), fit.as_ref(), truth.as_ref()]
+        .into_iter()
+        .flatten()
+        .map(PathBuf::as_path)
+        .collect();
+    for ext in ["csv", "svg", "png"] {
+        refuse_input(&base.with_extension(ext), &inputs)?;
+    }
     let read = |p: &Path| -> Result<(u32, u32, Vec<f64>)> {
         inverse::luminance_image(p, linear).map_err(|e| {
             anyhow!(
@@ -182,7 +193,6 @@ pub(crate) fn run_inverse(args: InverseArgs) -> Result<()> {
         }
         None => inverse::invert_line(&vals, proj(&light), ca, cd, pixel_size, prior),
     };
-    let base = output_base(&output, &["csv", "svg", "png"])?;
     write_file(
         &base.with_extension("csv"),
         inverse::to_csv(&px, &pos).as_bytes(),

@@ -27,6 +27,9 @@ pub(crate) fn run_eval(args: EvalArgs) -> Result<()> {
         directions,
         output,
     } = args;
+    if let Some(p) = &output {
+        refuse_input(p, &[&directions])?;
+    }
     let m = model.build()?;
     let dirs = data::load_directions(&directions)?;
     let mut out = Dataset::new(Quantity::Brdf, vec![(String::new(), None)]);
@@ -38,7 +41,6 @@ pub(crate) fn run_eval(args: EvalArgs) -> Result<()> {
     out.meta.comments = vec![format!("brdfit eval: {m}")];
     match output {
         Some(p) => {
-            refuse_input(&p, &[&directions])?;
             data::write_csv(&out, &p)?;
             wrote(&p);
             Ok(())
@@ -323,6 +325,7 @@ pub(crate) fn run_convert(args: ConvertArgs) -> Result<()> {
         to,
         load,
     } = args;
+    refuse_input(&output, &[&input])?;
     let ds = load.load(&input)?;
     let to_merl = match to.as_deref() {
         Some("merl") => true,
@@ -330,7 +333,6 @@ pub(crate) fn run_convert(args: ConvertArgs) -> Result<()> {
         Some(t) => bail!("unknown output format '{t}'\n  fix: use --to csv or --to merl"),
         None => Format::from_extension(&output) == Some(Format::Merl),
     };
-    refuse_input(&output, &[&input])?;
     if to_merl {
         data::merl::write_merl(&ds, &output)?;
     } else {

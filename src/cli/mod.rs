@@ -53,8 +53,8 @@ pub(crate) static VERBOSE: std::sync::atomic::AtomicBool =
 
 /// Announce a file the command wrote, on stderr (`wrote PATH`), after any folder created
 /// for it (`created DIR/`), unless --quiet. The one rule for outputs: an existing file is
-/// replaced (atomically), an output that is one of the inputs is refused, and missing parent
-/// folders are created and named.
+/// replaced (atomically) only if it is a regular file, an output that is one of the inputs
+/// is refused, and missing parent folders are created and named.
 pub(crate) fn wrote(path: &Path) {
     announce_created(None);
     if !quiet() {
@@ -72,8 +72,11 @@ pub(crate) fn announce_created(within: Option<&Path>) {
     }
 }
 
-/// Refuse an output path that is one of the inputs (brdfit never modifies an input).
+/// Refuse an output path that is one of the inputs (brdfit never modifies an input), or that
+/// exists and is not a regular file ([`brdfit::support::output::check_target`]: a device such as
+/// `/dev/null`, a named pipe, a folder). Called before the command's work.
 pub(crate) fn refuse_input(output: &Path, inputs: &[&Path]) -> Result<()> {
+    brdfit::support::output::check_target(output)?;
     if inputs.iter().any(|i| same_file(i, output)) {
         bail!(
             "{}: the output would overwrite an input\n  fix: choose another output path",
@@ -153,8 +156,8 @@ pub(crate) fn save_image(img: &brdfit::render::Image, base: &Path) -> Result<()>
 
 /// Write bytes atomically and announce the file.
 pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
-    brdfit::support::output::write_bytes_atomic(path, bytes)
-        .with_context(|| format!("writing {}", path.display()))?;
+    // The error names the path and the fix.
+    brdfit::support::output::write_bytes_atomic(path, bytes)?;
     wrote(path);
     Ok(())
 }

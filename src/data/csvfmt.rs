@@ -11,7 +11,7 @@
 //! value field marks a missing value.
 
 use super::{DataError, Dataset, NegativePolicy, Quantity, RowSink, io_error, open, parse_number};
-use crate::support::output::write_atomic;
+use crate::support::output::{write_atomic, write_error};
 use std::io::{BufRead, BufReader, Write};
 use std::path::Path;
 
@@ -356,7 +356,7 @@ pub fn load_directions(path: &Path) -> Result<Dataset, DataError> {
 /// Write a dataset as brdfit CSV (angles in degrees, values as stored; missing values empty),
 /// atomically (temporary file, then rename).
 pub fn write_csv(ds: &Dataset, path: &Path) -> Result<(), DataError> {
-    write_atomic(path, |w| write_csv_to(ds, w)).map_err(|e| io_error(path, &e))
+    write_atomic(path, |w| write_csv_to(ds, w)).map_err(|e| write_error(path, &e))
 }
 
 /// An angle in degrees as written: rounded to 1e-11° so that a grid angle stored in radians

@@ -7,7 +7,7 @@
 //! using reciprocity (φd and φd + 180° share a cell). Negative cells are missing samples.
 
 use super::{DataError, Dataset, Quantity, io_error, open};
-use crate::support::output::write_atomic;
+use crate::support::output::{write_atomic, write_error};
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::io::{Read, Write};
 use std::path::Path;
@@ -257,6 +257,7 @@ pub fn write_merl(ds: &Dataset, path: &Path) -> Result<(), DataError> {
         )
         .with_setting(crate::support::setting::Setting::Channel)
     })?;
+    refuse_unstorable(ds, &cells, path)?;
     write_atomic(path, |w: &mut dyn Write| {
         for d in [90i32, 90, 180] {
             w.write_all(&d.to_le_bytes())?;
@@ -269,7 +270,63 @@ pub fn write_merl(ds: &Dataset, path: &Path) -> Result<(), DataError> {
         }
         Ok(())
     })
-    .map_err(|e| io_error(path, &e))
+    .map_err(|e| write_error(path, &e))
+}
+
+/// Refuse a table whose stored value (f_r / [`SCALE`]) is not a finite 64-bit float in some
+/// cell: the file would hold `inf`, which [`load_merl`] refuses as damaged. The error names
+/// the input file and its largest sample in that cell (its number, directions and f_r), and
+/// nothing is written to `output`.
+fn refuse_unstorable(ds: &Dataset, cells: &[[f64; 3]], output: &Path) -> Result<(), DataError> {
+    let Some((cell, plane)) = cells.iter().enumerate().find_map(|(i, c)| {
+        (0..3)
+            .find(|&p| c[p] >= 0.0 && !(c[p] / SCALE[p]).is_finite())
+            .map(|p| (i, p))
+    }) else {
+        return Ok(());
+    };
+    // The channel that fills this plane: one channel fills all three.
+    let chan = if ds.channels.len() == 1 { 0 } else { plane };
+    let brdf = ds.brdf_values(chan);
+    let largest = (0..ds.len())
+        .filter(|&k| cell_index(ds.angles(k)) == cell && brdf[k].is_finite())
+        .max_by(|&a, &b| brdf[a].total_cmp(&brdf[b]));
+    let input = if ds.meta.source.is_empty() {
+        output.to_path_buf()
+    } else {
+        std::path::PathBuf::from(&ds.meta.source)
+    };
+    let at = largest.map_or_else(String::new, |k| {
+        let a = ds.angles(k).map(f64::to_degrees);
+        let name = &ds.channels[chan].name;
+        let name = if name.is_empty() {
+            String::new()
+        } else {
+            format!(" ({name})")
+        };
+        format!(
+            "sample {} (θi {:.4}°, φi {:.4}°, θo {:.4}°, φo {:.4}°) has f_r = {:e}{name}; ",
+            k + 1,
+            a[0],
+            a[1],
+            a[2],
+            a[3],
+            brdf[k]
+        )
+    });
+    Err(DataError::new(
+        &input,
+        None,
+        format!(
+            "{at}a MERL .binary stores f_r × {:.0} as a 64-bit float, which overflows to \
+             infinity for this cell (largest finite: {:e}); nothing was written to {}",
+            1.0 / SCALE[plane],
+            f64::MAX,
+            output.display()
+        ),
+        "check the values' units and scale (a BRDF above 1e6 /sr is rarely measured), or \
+         write CSV instead (an output ending in .csv holds any finite value)",
+    ))
 }
 
 #[cfg(test)]

@@ -95,26 +95,146 @@ pub fn remove_stale_temps(path: &Path) {
     }
 }
 
+/// Why an output cannot be written, and the fix: the error inside the [`io::Error`]s that
+/// [`write_atomic`] and [`check_target`] return. [`write_error`] turns it into a
+/// [`DataError`](crate::support::input::DataError).
+#[derive(Debug)]
+pub struct Refusal {
+    /// The path in the way: the output, or the folder it goes in.
+    pub path: PathBuf,
+    /// What is wrong.
+    pub message: String,
+    /// What the user should do.
+    pub fix: String,
+}
+
+impl std::fmt::Display for Refusal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}: {}\n  fix: {}",
+            self.path.display(),
+            self.message,
+            self.fix
+        )
+    }
+}
+
+impl std::error::Error for Refusal {}
+
+fn refusal(
+    kind: io::ErrorKind,
+    path: &Path,
+    message: impl Into<String>,
+    fix: impl Into<String>,
+) -> io::Error {
+    io::Error::new(
+        kind,
+        Refusal {
+            path: path.to_path_buf(),
+            message: message.into(),
+            fix: fix.into(),
+        },
+    )
+}
+
+/// An error of [`write_atomic`] on `path` as a [`DataError`](crate::support::input::DataError) that
+/// says what could not be written and the fix.
+pub fn write_error(path: &Path, e: &io::Error) -> crate::support::input::DataError {
+    use crate::support::input::DataError;
+    match e.get_ref().and_then(|i| i.downcast_ref::<Refusal>()) {
+        Some(r) => DataError::new(&r.path, None, r.message.clone(), r.fix.clone()),
+        None => DataError::new(path, None, format!("cannot write: {e}"), write_fix(e)),
+    }
+}
+
+/// The fix for a failure writing a file.
+fn write_fix(e: &io::Error) -> &'static str {
+    match e.kind() {
+        io::ErrorKind::StorageFull => "free space on the disk, or choose another output path",
+        io::ErrorKind::PermissionDenied | io::ErrorKind::ReadOnlyFilesystem => {
+            "choose an output path you can write to"
+        }
+        _ => "check the output path and the disk, or choose another output path",
+    }
+}
+
+/// A failure writing `path` (not creating it), worded as one.
+fn cannot_write(path: &Path, e: io::Error) -> io::Error {
+    if e.get_ref().is_some_and(|i| i.is::<Refusal>()) {
+        return e;
+    }
+    let fix = write_fix(&e);
+    refusal(e.kind(), path, format!("cannot write: {e}"), fix)
+}
+
+/// What kind of file `t` is, for a message: "a character device", "a named pipe (FIFO)"...
+fn kind_of(t: std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_char_device() {
+            return "a character device";
+        }
+        if t.is_block_device() {
+            return "a block device";
+        }
+        if t.is_fifo() {
+            return "a named pipe (FIFO)";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    let _ = t;
+    "a special file"
+}
+
+/// Refuse an output `path` that exists and is not a regular file: a folder, a device
+/// (`/dev/null`), a named pipe or a socket would be replaced by a regular file. A symbolic
+/// link is replaced itself, never written through, unless it points to a folder. A path that
+/// does not exist yet is fine. [`write_atomic`] checks this first; a command calls it before
+/// its work, so that nothing is computed for an output that would be refused.
+pub fn check_target(path: &Path) -> io::Result<()> {
+    let Ok(meta) = std::fs::symlink_metadata(path) else {
+        return Ok(());
+    };
+    let t = meta.file_type();
+    if t.is_dir() || (t.is_symlink() && path.is_dir()) {
+        return Err(refusal(
+            io::ErrorKind::IsADirectory,
+            path,
+            "is a folder, not a file",
+            format!("give a file name (e.g. `{}`)", path.join("out").display()),
+        ));
+    }
+    if t.is_file() || t.is_symlink() {
+        return Ok(());
+    }
+    Err(refusal(
+        io::ErrorKind::InvalidInput,
+        path,
+        format!(
+            "is {}, not a regular file; brdfit replaces only regular files",
+            kind_of(t)
+        ),
+        "give a path to a regular file or a new name",
+    ))
+}
+
 /// Write `path` atomically: `write` fills a temporary file beside it, which is renamed over
 /// `path` only when `write` succeeded; otherwise (an error or a panic) the temporary file is
-/// removed. Stale temporary files of `path` from killed runs are removed first
-/// ([`remove_stale_temps`]). A missing parent folder is created ([`create_dir`]).
+/// removed. An existing `path` that is not a regular file (a device, a named pipe, a folder)
+/// is refused before anything is written ([`check_target`]). Stale temporary files of `path`
+/// from killed runs are removed first ([`remove_stale_temps`]). A missing parent folder is
+/// created ([`create_dir`]). Errors carry a [`Refusal`]: what is wrong and the fix.
 pub fn write_atomic<F>(path: &Path, write: F) -> io::Result<()>
 where
     F: FnOnce(&mut dyn Write) -> io::Result<()>,
 {
+    check_target(path)?;
     if let Some(dir) = path.parent() {
         create_dir(dir)?;
-    }
-    if path.is_dir() {
-        return Err(io::Error::new(
-            io::ErrorKind::IsADirectory,
-            format!(
-                "`{}` is a folder, not a file\n  fix: give a file name (e.g. `{}`)",
-                path.display(),
-                path.join("out").display()
-            ),
-        ));
     }
     remove_stale_temps(path);
     let tmp = temp_name(path);
@@ -125,11 +245,12 @@ where
     let dir = path.parent().unwrap_or(Path::new("."));
     let file = std::fs::File::create(&tmp).map_err(|e| explain(e, dir))?;
     let mut w = BufWriter::with_capacity(1 << 16, file);
-    write(&mut w)?;
-    let file = w.into_inner().map_err(|e| e.into_error())?;
-    file.sync_all()?;
+    let fail = |e| cannot_write(path, e);
+    write(&mut w).map_err(fail)?;
+    let file = w.into_inner().map_err(|e| fail(e.into_error()))?;
+    file.sync_all().map_err(fail)?;
     drop(file);
-    std::fs::rename(&tmp, path)?;
+    std::fs::rename(&tmp, path).map_err(fail)?;
     guard.renamed = true;
     Ok(())
 }
@@ -150,27 +271,36 @@ fn explain(e: io::Error, dir: &Path) -> io::Error {
         }
         blocker = b.parent().filter(|p| !p.as_os_str().is_empty());
     }
-    let msg = match blocker {
-        Some(b) if b == dir && b.exists() && !b.is_dir() => format!(
-            "`{}` is a file, not a folder\n  fix: choose another output path, or move `{}` away",
-            b.display(),
-            b.display()
+    let fix = |b: &Path| format!("choose another output path, or move `{}` away", b.display());
+    match blocker {
+        Some(b) if b == dir && b.exists() && !b.is_dir() => {
+            refusal(e.kind(), b, "is a file, not a folder", fix(b))
+        }
+        Some(b) if b.exists() && !b.is_dir() => refusal(
+            e.kind(),
+            b,
+            format!(
+                "is a file, so the folder `{}` cannot be made",
+                dir.display()
+            ),
+            fix(b),
         ),
-        Some(b) if b.exists() && !b.is_dir() => format!(
-            "`{}` is a file, so the folder `{}` cannot be made\n  fix: choose another output \
-             path, or move `{}` away",
-            b.display(),
-            dir.display(),
-            b.display()
+        _ if e.kind() == io::ErrorKind::PermissionDenied => refusal(
+            e.kind(),
+            dir,
+            format!("no permission to write in this folder ({e})"),
+            "choose an output path in a folder you can write to",
         ),
-        _ if e.kind() == io::ErrorKind::PermissionDenied => format!(
-            "no permission to write in `{}` ({e})\n  fix: choose an output path in a folder you \
-             can write to",
-            dir.display()
-        ),
-        _ => format!("cannot write in `{}`: {e}", dir.display()),
-    };
-    io::Error::new(e.kind(), msg)
+        _ => {
+            let fix = write_fix(&e);
+            refusal(
+                e.kind(),
+                dir,
+                format!("cannot write in this folder: {e}"),
+                fix,
+            )
+        }
+    }
 }
 
 /// [`write_atomic`] for a byte buffer.
@@ -218,7 +348,7 @@ mod tests {
         std::fs::write(&blocker, b"x").unwrap();
         let e = write_bytes_atomic(&blocker.join("sub/out.json"), b"ok").unwrap_err();
         let msg = e.to_string();
-        assert!(msg.contains("afile` is a file"), "{msg}");
+        assert!(msg.contains("afile: is a file"), "{msg}");
         assert!(msg.contains("fix:"), "{msg}");
         let e = write_bytes_atomic(dir.path(), b"ok")
             .unwrap_err()

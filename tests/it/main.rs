@@ -23,6 +23,7 @@ mod model_props;
 mod mutation;
 mod nbrdf;
 mod nist;
+mod nothing_lost;
 mod physical_choose;
 mod pixel_refit;
 mod plots;
