@@ -29,7 +29,10 @@
 # range, and whether the median meets the goal (the ratios against scipy as compare_scipy.sh
 # prints them, to 0.1). Any command that fails stops the run with its message. The scipy peer
 # needs numpy and scipy for PYTHON (python3 -m venv /tmp/peers && /tmp/peers/bin/pip install
-# numpy scipy). Writes nothing in the checkout; its outputs go to a temporary directory.
+# numpy scipy). Its outputs go to a temporary directory. With MARKDOWN=FILE (for instance
+# MARKDOWN=docs/performance.md) it also replaces the part of FILE between the lines
+# `<!-- goals.sh begins -->` and `<!-- goals.sh ends -->` with the summary as a Markdown table,
+# headed by the machine, the date, the load and the command; nothing else is written.
 set -euo pipefail
 # The binaries as absolute paths (given relative to where the script was run).
 bins=()
@@ -42,6 +45,12 @@ PYTHON=${PYTHON:-python3}
 ROUNDS=${ROUNDS:-3}
 REPEAT=${REPEAT:-11}
 PARTS=${PARTS:-scipy models all choose report}
+MARKDOWN=${MARKDOWN:-}
+if [ -n "$MARKDOWN" ] && ! grep -q '^<!-- goals.sh begins -->$' "$MARKDOWN" 2>/dev/null; then
+  echo "MARKDOWN=$MARKDOWN has no line '<!-- goals.sh begins -->'; fix: add the two marker lines where the table goes" >&2
+  exit 2
+fi
+START_LOAD=$(cut -d' ' -f1-3 /proc/loadavg)
 if [ ${#bins[@]} -eq 0 ]; then
   cargo build --release -q
   bins=("$PWD/target/release/brdfit")
@@ -158,8 +167,11 @@ PTY
   done
 done | tee "$TMP/raw.txt"
 echo "load average: $(cut -d' ' -f1-3 /proc/loadavg)"
-$PYTHON - "$TMP/raw.txt" << 'EOF'
-import statistics as st, sys
+CPU=$(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -1)
+COMMAND="ROUNDS=$ROUNDS REPEAT=$REPEAT PARTS=\"$PARTS\"${PEER:+ PEER=$PEER} benches/goals.sh"
+$PYTHON - "$TMP/raw.txt" "$MARKDOWN" "$(nproc) cores, $CPU" "$(date -u '+%F')" \
+  "$START_LOAD" "$(cut -d' ' -f1-3 /proc/loadavg)" "$COMMAND" << 'EOF'
+import os, statistics as st, sys
 from collections import defaultdict
 v = defaultdict(list)  # (bin, part, key) -> values in repetition order
 for line in open(sys.argv[1]):
@@ -172,6 +184,7 @@ for line in open(sys.argv[1]):
 bins = list(dict.fromkeys(k[0] for k in v))
 def med(xs):
     return st.median(xs), min(xs), max(xs)
+table = []
 print(f"{'binary':<28} {'goal':<48} {'median':>9} {'range':>19}  met")
 for b in bins:
     rows = []
@@ -202,4 +215,32 @@ for b in bins:
         m, lo, hi = med(xs)
         met = "" if goal is None else ("yes" if (m >= goal if above else m <= goal) else "NO")
         print(f"{b:<28} {name:<48} {m:>8.4g}{unit} {lo:>8.4g}–{hi:<8.4g}  {met}  (n={len(xs)})")
+        table.append((b, name, m, lo, hi, unit, met, len(xs)))
+markdown, machine, day, load0, load1, command = sys.argv[2:8]
+if markdown:
+    one = len(bins) == 1
+    out = [
+        f"Machine: {machine}. Date: {day}. Load average (1, 5, 15 min) {load0} at the start, "
+        f"{load1} at the end. Command:",
+        "",
+        "```sh",
+        command,
+        "```",
+        "",
+        "| goal | median | range | met | n |" if one else "| binary | goal | median | range | met | n |",
+        "|---|---|---|---|---|" if one else "|---|---|---|---|---|---|",
+    ]
+    for b, name, m, lo, hi, unit, met, n in table:
+        cells = [name, f"{m:.4g}{unit}", f"{lo:.4g}–{hi:.4g}", met or "–", str(n)]
+        if not one:
+            cells.insert(0, os.path.basename(os.path.dirname(os.path.dirname(os.path.dirname(b)))) or b)
+        out.append("| " + " | ".join(cells) + " |")
+    text = open(markdown, encoding="utf-8").read().split("\n")
+    a = text.index("<!-- goals.sh begins -->")
+    z = text.index("<!-- goals.sh ends -->")
+    new = "\n".join(text[: a + 1] + out + text[z:])
+    tmp = markdown + ".goals-tmp"
+    open(tmp, "w", encoding="utf-8").write(new)
+    os.replace(tmp, markdown)
+    print(f"wrote {markdown}")
 EOF
