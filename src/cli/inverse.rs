@@ -126,36 +126,7 @@ pub(crate) fn run_inverse(args: InverseArgs) -> Result<()> {
             "no diffuse constant\n  fix: give --cd VALUE, or --fit FILE (with --irradiance and --ambient)"
         ),
     };
-    if !(cd.is_finite() && cd > 0.0) {
-        bail!(
-            "the diffuse constant Cd = {cd} must be a finite number > 0: the shading cos θ = (I − Ca)/Cd needs it\n  fix: give --cd as the image value a surface facing the light adds above the ambient (e.g. --cd 0.8)"
-        );
-    }
-    if !(ca.is_finite() && ca >= 0.0) {
-        bail!(
-            "the ambient constant Ca = {ca} must be a finite number ≥ 0\n  fix: give --ca 0 or the image value of a surface facing away from the light"
-        );
-    }
-    if !(pixel_size.is_finite() && pixel_size > 0.0) {
-        bail!("--pixel-size {pixel_size} must be a finite number > 0\n  fix: e.g. --pixel-size 1");
-    }
-    for (flag, l) in [("--light", &light), ("--light2", &light2)] {
-        if l.is_empty() && flag == "--light2" {
-            continue;
-        }
-        if l.len() != 3 {
-            bail!("{flag} needs x,y,z\n  fix: e.g. {flag} 0,0,1 (toward the viewer)");
-        }
-        let norm = l.iter().map(|v| v * v).sum::<f64>().sqrt();
-        if !(norm.is_finite() && norm > 1e-9) {
-            bail!(
-                "{flag} {},{},{} is not a direction (it must be finite and not zero)\n  fix: e.g. {flag} 0.5,0,1",
-                l[0],
-                l[1],
-                l[2]
-            );
-        }
-    }
+    check_constants(cd, ca, pixel_size, &light, &light2)?;
     let (dx, dy) = (b.0 as f64 - a.0 as f64, -(b.1 as f64 - a.1 as f64));
     let len = (dx * dx + dy * dy).sqrt().max(1e-12);
     let proj = |l: &[f64]| {
@@ -234,6 +205,41 @@ pub(crate) fn run_inverse(args: InverseArgs) -> Result<()> {
             "note: {flagged} of {} pixels have no solution (value outside the model's range) and are flagged",
             px.len()
         );
+    }
+    Ok(())
+}
+
+/// The shading constants, the pixel size and the light directions, checked with the fix.
+fn check_constants(cd: f64, ca: f64, pixel_size: f64, light: &[f64], light2: &[f64]) -> Result<()> {
+    if !(cd.is_finite() && cd > 0.0) {
+        bail!(
+            "the diffuse constant Cd = {cd} must be a finite number > 0: the shading cos θ = (I − Ca)/Cd needs it\n  fix: give --cd as the image value a surface facing the light adds above the ambient (e.g. --cd 0.8)"
+        );
+    }
+    if !(ca.is_finite() && ca >= 0.0) {
+        bail!(
+            "the ambient constant Ca = {ca} must be a finite number ≥ 0\n  fix: give --ca 0 or the image value of a surface facing away from the light"
+        );
+    }
+    if !(pixel_size.is_finite() && pixel_size > 0.0) {
+        bail!("--pixel-size {pixel_size} must be a finite number > 0\n  fix: e.g. --pixel-size 1");
+    }
+    for (flag, l) in [("--light", &light), ("--light2", &light2)] {
+        if l.is_empty() && flag == "--light2" {
+            continue;
+        }
+        if l.len() != 3 {
+            bail!("{flag} needs x,y,z\n  fix: e.g. {flag} 0,0,1 (toward the viewer)");
+        }
+        let norm = l.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if !(norm.is_finite() && norm > 1e-9) {
+            bail!(
+                "{flag} {},{},{} is not a direction (it must be finite and not zero)\n  fix: e.g. {flag} 0.5,0,1",
+                l[0],
+                l[1],
+                l[2]
+            );
+        }
     }
     Ok(())
 }
