@@ -315,9 +315,14 @@ fn eval_model<'py>(
         )));
     }
     let f = |a: &[f64]| m.brdf(&Geometry::from_angles(a[0], a[1], a[2], a[3]));
-    let out: Vec<f64> = match directions.as_slice() {
-        Ok(flat) => py.allow_threads(|| flat.chunks_exact(4).map(f).collect()),
-        Err(_) => directions
+    // `as_slice` takes a Fortran-ordered array too, whose rows are not the slice's quads.
+    let flat = directions
+        .is_c_contiguous()
+        .then(|| directions.as_slice().ok())
+        .flatten();
+    let out: Vec<f64> = match flat {
+        Some(flat) => py.allow_threads(|| flat.chunks_exact(4).map(f).collect()),
+        None => directions
             .as_array()
             .rows()
             .into_iter()
