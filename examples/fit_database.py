@@ -41,6 +41,9 @@ def material_data(source: Dict[str, Any], grid: str):
     """The samples of one material: a network sampled on `grid`, or a data file."""
     import brdfit
 
+    # A process that does mostly fitting: freed memory kept for the next fit, as the command
+    # line keeps it.
+    brdfit.keep_freed_memory()
     if source["kind"] == "nbrdf":
         return brdfit.simulate(nbrdf=source["weights"], material=source["name"], grid=grid)
     return brdfit.load(source["path"])

@@ -41,6 +41,7 @@ __all__ = [
     "read_fits",
     "model_names",
     "nbrdf_materials",
+    "keep_freed_memory",
 ]
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -327,3 +328,13 @@ def model_names() -> List[Tuple[str, str]]:
 def nbrdf_materials(path: PathLike) -> List[str]:
     """The network names in a Neural-BRDF weights file (e.g. ``merl/steel``), in file order."""
     return _brdfit.nbrdf_materials(os.fspath(path))
+
+
+def keep_freed_memory() -> None:
+    """Tell the C allocator (glibc) to keep freed memory for reuse, as the ``brdfit`` program
+    does at its start: repeated fits then reuse pages already touched instead of faulting in
+    fresh ones. It changes the allocator of the whole process (freed memory is not handed back
+    to the system while it runs), so call it in processes that do mostly fitting, such as Dask
+    workers. Elsewhere than glibc it does nothing."""
+    _brdfit.keep_freed_memory()
+

@@ -6,6 +6,7 @@ use brdfit::model::{Distribution, Model, ModelKind};
 use brdfit::simulate::Grid;
 use numpy::{PyArray1, PyArray2, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 /// Reflectance samples: angles in radians, one column of values per channel, and the file's
@@ -286,7 +287,7 @@ pub fn simulate(
     material: Option<&str>,
     symmetric: bool,
 ) -> PyResult<PyDataset> {
-    let dirs: Vec<[f64; 4]> = match &directions {
+    let dirs: Cow<[[f64; 4]]> = match &directions {
         Some(d) => {
             if d.shape()[1] != 4 {
                 return Err(error(format!(
@@ -295,15 +296,21 @@ pub fn simulate(
                     d.shape()[1]
                 )));
             }
-            d.as_array()
-                .rows()
-                .into_iter()
-                .map(|r| [r[0], r[1], r[2], r[3]])
-                .collect()
+            // In place when C-contiguous (`as_slice` takes a Fortran-ordered array too).
+            match d.is_c_contiguous().then(|| d.as_slice().ok()).flatten() {
+                Some(flat) => Cow::Borrowed(flat.as_chunks::<4>().0),
+                None => d
+                    .as_array()
+                    .rows()
+                    .into_iter()
+                    .map(|r| [r[0], r[1], r[2], r[3]])
+                    .collect(),
+            }
         }
         None => Grid::parse(grid)
             .map_err(|e| error(format!("grid {e}")))?
-            .directions(seed),
+            .directions(seed)
+            .into(),
     };
     if !(noise.is_finite() && noise >= 0.0) {
         return Err(error(format!(

@@ -42,6 +42,16 @@ pub(crate) fn choice<T: clap::ValueEnum>(arg: &str, name: &str) -> PyResult<T> {
     })
 }
 
+/// Tell the C allocator to keep freed memory for reuse, as the `brdfit` program does at its
+/// start ([`brdfit::keep_freed_memory`]): repeated fits then reuse pages already touched. It
+/// changes the allocator of the whole Python process (freed memory is not handed back to the
+/// system while it runs), so it is for processes that do mostly fitting, such as a Dask
+/// worker's.
+#[pyfunction]
+fn keep_freed_memory() {
+    brdfit::keep_freed_memory();
+}
+
 /// The module.
 #[pymodule]
 fn _brdfit(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -61,5 +71,6 @@ fn _brdfit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(answers::render, m)?)?;
     m.add_function(wrap_pyfunction!(answers::export, m)?)?;
     m.add_function(wrap_pyfunction!(answers::nbrdf_materials, m)?)?;
+    m.add_function(wrap_pyfunction!(keep_freed_memory, m)?)?;
     Ok(())
 }
