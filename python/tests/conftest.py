@@ -9,12 +9,12 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 
 
-@pytest.fixture
+@pytest.fixture(scope="package")
 def root() -> Path:
     return ROOT
 
 
-@pytest.fixture
+@pytest.fixture(scope="package")
 def cli() -> str:
     """The brdfit binary the Python results are compared with: $BRDFIT_CLI, else the release
     build of this checkout (cargo build --release; cargo test --release builds it too)."""
