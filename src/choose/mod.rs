@@ -183,6 +183,20 @@ pub fn check_test_object(scene: &Scene) -> Result<(), String> {
     })
 }
 
+/// The case of a scene file: `scene` read from `path` (named in errors), its camera's image
+/// within the size limits (`allow_large` lifts them) and its test object lit
+/// ([`check_test_object`]); the case is named by the file's stem.
+pub fn scene_case(path: &std::path::Path, scene: Scene, allow_large: bool) -> Result<Case, String> {
+    crate::render::check_image_size(scene.camera.width, scene.camera.height, allow_large)
+        .map_err(|e| format!("{}: camera: {e}", path.display()))?;
+    check_test_object(&scene).map_err(|e| format!("{}: {e}", path.display()))?;
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "scene".into());
+    Ok(Case { name, scene })
+}
+
 /// The two lighting cases of Blinn's Figure 7 at `res`², lit by the light alone (no ambient
 /// term, so the images show only the BRDF under the light).
 pub fn fig7_cases(res: u32) -> Vec<Case> {

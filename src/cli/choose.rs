@@ -97,18 +97,7 @@ pub(crate) fn run_choose(a: ChooseArgs) -> Result<()> {
     } else {
         let path = Path::new(&a.scene);
         let scene = load_scene(path)?;
-        brdfit::render::check_image_size(
-            scene.camera.width,
-            scene.camera.height,
-            a.allow_large_image,
-        )
-        .map_err(|e| anyhow!("{}: camera: {e}", path.display()))?;
-        choose::check_test_object(&scene).map_err(|e| anyhow!("{}: {e}", path.display()))?;
-        let name = path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "scene".into());
-        vec![choose::Case { name, scene }]
+        vec![choose::scene_case(path, scene, a.allow_large_image).map_err(|e| anyhow!("{e}"))?]
     };
     let quiet = quiet();
     let t = std::time::Instant::now();

@@ -115,11 +115,7 @@ pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
             &a.files.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
         )?;
         let flat: Vec<&brdfit::fit::FitResult> = all.iter().flat_map(|(_, f)| f).collect();
-        let v = if flat.len() == 1 {
-            flat[0].to_json()
-        } else {
-            serde_json::json!({ "fits": flat.iter().map(|f| f.to_json()).collect::<Vec<_>>() })
-        };
+        let v = brdfit::fit::fits_json(&flat);
         let s = serde_json::to_string_pretty(&v)? + "\n";
         write_file(path, s.as_bytes())?;
         if flat.len() > 1 && !quiet() {
@@ -245,38 +241,19 @@ pub(crate) fn fit_one(
     }
     let start = parse_assignments("--start", &a.start)?;
     check_flag_params(&kinds, &fix, &start)?;
-    let mut opts = Vec::new();
-    for (kind, dist) in &kinds {
-        let mut o = FitOptions::new(*kind);
-        o.dist = *dist;
-        o.method = method;
-        o.loss = loss;
-        o.robust = robust;
-        o.max_theta_deg = a.max_theta;
-        o.weights = a.weights;
-        // With --model all, parameters a model lacks are skipped for that model.
-        let names = kind.param_names(*dist);
-        let keep = |v: &Vec<(String, f64)>| -> Vec<(String, f64)> {
-            v.iter()
-                .filter(|(k, _)| kinds.len() == 1 || names.contains(&k.as_str()))
-                .cloned()
-                .collect()
-        };
-        o.fix = keep(&fix);
-        o.start = keep(&start);
-        o.shared = a
-            .shared
-            .iter()
-            .filter(|s| kinds.len() == 1 || names.contains(&s.as_str()))
-            .cloned()
-            .collect();
-        o.local_only = a.local_only;
-        o.resolution = a.resolution;
-        o.fast_pow = a.fast_pow;
-        o.verify = a.verify;
-        o.seed = a.verify_seed;
-        opts.push(o);
-    }
+    let mut o = FitOptions::new(kinds[0].0);
+    o.method = method;
+    o.loss = loss;
+    o.robust = robust;
+    o.max_theta_deg = a.max_theta;
+    o.weights = a.weights;
+    (o.fix, o.start, o.shared) = (fix, start, a.shared.clone());
+    o.local_only = a.local_only;
+    o.resolution = a.resolution;
+    o.fast_pow = a.fast_pow;
+    o.verify = a.verify;
+    o.seed = a.verify_seed;
+    let opts = fit::options_per_model(&o, &kinds);
     // The models in parallel, each channel's geometry computed once for them all. A bar (on a
     // terminal, one file) from a tenth of a million samples on, where the fits take seconds (a
     // full MERL table: about 20 s for --model all); a batch of files has its own bar.

@@ -57,11 +57,11 @@ pub use format::{
     all_models, format_channels, format_fit, format_ranking, format_ranking_line, rank,
 };
 pub use lsq::{Limits, Method};
-pub use models::{fit_models, fit_models_with_progress};
+pub use models::{fit_models, fit_models_with_progress, options_per_model};
 pub use options::{FitError, FitOptions, RESOLUTION, RobustKind, Weighting};
 pub use problem::Loss;
 pub use progress::{TICK, Watch, ticking, with_count};
-pub use result::{FitResult, KKT_TOLERANCE, SAME_MINIMUM, Verification};
+pub use result::{FitResult, KKT_TOLERANCE, SAME_MINIMUM, Verification, fits_json};
 pub use run::{fit, fit_timed};
 pub use setup::solid_angle_weights;
 pub use solve::random_start;

@@ -89,6 +89,34 @@ pub fn fit_models_with_progress(
     Ok((fits, walls[walls.len() / 2]))
 }
 
+/// The options of each model of `kinds` (its model and distribution set), the rest from
+/// `base`: with several models (`fit --model all`), `fix`, `start` and `shared` keep only the
+/// parameters that model has; with one they stay whole, so that a name the model lacks is an
+/// error of its fit.
+pub fn options_per_model(
+    base: &FitOptions,
+    kinds: &[(ModelKind, Distribution)],
+) -> Vec<FitOptions> {
+    kinds
+        .iter()
+        .map(|&(kind, dist)| {
+            let names = kind.param_names(dist);
+            let has = |k: &str| kinds.len() == 1 || names.contains(&k);
+            let keep = |v: &[(String, f64)]| -> Vec<(String, f64)> {
+                v.iter().filter(|(k, _)| has(k)).cloned().collect()
+            };
+            FitOptions {
+                kind,
+                dist,
+                fix: keep(&base.fix),
+                start: keep(&base.start),
+                shared: base.shared.iter().filter(|s| has(s)).cloned().collect(),
+                ..base.clone()
+            }
+        })
+        .collect()
+}
+
 /// The runs of [`fit_models_with_progress`]: each run's fits appended to `runs` (one list per
 /// entry of `opts`) and its wall time to `walls`; `step` as each channel's fit starts and ends.
 fn fit_runs(

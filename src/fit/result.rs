@@ -211,6 +211,15 @@ impl FitResult {
     }
 }
 
+/// The fit JSON of several fits as `fit --json` writes it: one fit as its object, several
+/// under `fits` in order.
+pub fn fits_json(fits: &[&FitResult]) -> serde_json::Value {
+    match fits {
+        [one] => one.to_json(),
+        _ => serde_json::json!({ "fits": fits.iter().map(|f| f.to_json()).collect::<Vec<_>>() }),
+    }
+}
+
 /// The start of the warning of a fit whose solver stopped before converging (the flag
 /// `unconverged` of [`FitResult::flags`]).
 pub(super) const UNCONVERGED: &str = "the solver stopped before converging";
