@@ -31,13 +31,6 @@ pub(super) struct Reference {
     pub(super) method: String,
 }
 
-/// The posterior of `ds` under `prior` as a base of the ratio reconstruction; `None` when no
-/// sample is usable.
-pub(super) fn posterior_base(prior: &Arc<Prior>, ds: &Dataset) -> Option<Base> {
-    let post = Posterior::condition(prior.clone(), ds, &PosteriorOptions::default())?;
-    Some(Base(Arc::new(move |g| post.brdf(g))))
-}
-
 impl Reference {
     /// Resample `ds` on the lowest-BIC usable model among the global fits and a
     /// Torrance–Sparrow fit with Löw et al.'s ABC distribution (the better the base model,
@@ -72,7 +65,8 @@ impl Reference {
         let base = bases[best];
         let fill = base.model_for(0);
         let dims = Dims::for_samples(ds.len());
-        let post = prior.and_then(|p| Posterior::condition(p.clone(), ds, &PosteriorOptions::default()));
+        let post =
+            prior.and_then(|p| Posterior::condition(p.clone(), ds, &PosteriorOptions::default()));
         let method = match &post {
             Some(p) => format!(
                 "prior: the samples' ratios to the posterior of {} materials' {} principal \
@@ -83,7 +77,7 @@ impl Reference {
             ),
             None => "samples: the samples' ratios to the best fit".into(),
         };
-        let on = post.map(|p| Base(Arc::new(move |g| p.brdf(g))));
+        let on = post.map(Base::posterior);
         // The table beside its cross-validation folds (each deterministic).
         let ((table, seconds), (folds, fold_seconds)) = rayon::join(
             || {

@@ -235,7 +235,15 @@ pub fn folds(
                 .ok()
                 .filter(|r| r.usable())
                 .map_or(fill, |r| r.model_for(0));
-            let on = prior.and_then(|p| super::reference::posterior_base(p, &sub));
+            let on = prior
+                .and_then(|p| {
+                    crate::prior::Posterior::condition(
+                        p.clone(),
+                        &sub,
+                        &crate::prior::PosteriorOptions::default(),
+                    )
+                })
+                .map(crate::render::measured::Base::posterior);
             let table = Arc::new(crate::render::reconstruct::reconstruct_on(
                 &sub, dims, base, on,
             ));

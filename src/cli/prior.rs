@@ -60,7 +60,10 @@ impl PriorArg {
 
 /// The bundled prior, from the cache or built with a progress bar.
 fn bundled_prior() -> Result<Prior> {
-    let bar = progress_bar(100, "prior: tabulating the MERL networks (once; then cached)");
+    let bar = progress_bar(
+        100,
+        "prior: tabulating the MERL networks (once; then cached)",
+    );
     let (prior, cache) = brdfit::prior::bundled(&BuildOptions::default(), &|done, total| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
@@ -75,7 +78,10 @@ fn bundled_prior() -> Result<Prior> {
 pub(crate) fn run_prior(cmd: PriorCmd) -> Result<()> {
     match cmd {
         PriorCmd::Build(a) => {
-            refuse_input(&a.output, &a.weights.iter().map(|p| p.as_path()).collect::<Vec<_>>())?;
+            refuse_input(
+                &a.output,
+                &a.weights.iter().map(|p| p.as_path()).collect::<Vec<_>>(),
+            )?;
             let nets = match &a.weights {
                 Some(w) => brdfit::data::nbrdf::load_all(w)?,
                 None => brdfit::data::nbrdf::parse_all(

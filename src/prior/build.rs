@@ -124,7 +124,7 @@ pub fn build(
     order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
     let keep: Vec<usize> = order
         .into_iter()
-        .filter(|&k| eig.eigenvalues[k] > 1e-9 * eig.eigenvalues.max())
+        .filter(|&k| eig.eigenvalues[k] > 1e-8 * eig.eigenvalues.max())
         .take(opts.max_components)
         .collect();
     // Component k = Σ_i v_ik table_i / √λ_k (unit length); the coefficient variance λ_k / n.
@@ -145,14 +145,19 @@ pub fn build(
                     *x += w * *y as f64;
                 }
             }
-            b.into_iter().map(|x| x as f32).collect()
+            // Unit length again: for the smallest components the sum above loses digits.
+            let norm = b.iter().map(|x| x * x).sum::<f64>().sqrt().max(1e-300);
+            b.into_iter().map(|x| (x / norm) as f32).collect()
         })
         .collect();
     Some(Prior {
         dims: opts.dims,
         median,
         basis: basis_k.concat(),
-        variance: keep.iter().map(|&k| eig.eigenvalues[k] / n as f64).collect(),
+        variance: keep
+            .iter()
+            .map(|&k| eig.eigenvalues[k] / n as f64)
+            .collect(),
         materials: used.iter().map(|n| n.name.clone()).collect(),
         residual_variance: {
             let all: f64 = eig.eigenvalues.iter().map(|l| l.max(0.0)).sum();

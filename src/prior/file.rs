@@ -62,9 +62,12 @@ pub fn load(path: &Path) -> Result<Prior, DataError> {
             "give a file written by `brdfit prior build`, or build it again",
         )
     };
-    let rest = bytes
-        .strip_prefix(MAGIC.as_bytes())
-        .ok_or_else(|| bad(Some(1), "not a brdfit prior (no `brdfit prior 1` line)".into()))?;
+    let rest = bytes.strip_prefix(MAGIC.as_bytes()).ok_or_else(|| {
+        bad(
+            Some(1),
+            "not a brdfit prior (no `brdfit prior 1` line)".into(),
+        )
+    })?;
     let end = rest
         .iter()
         .position(|&b| b == b'\n')
@@ -132,7 +135,11 @@ fn fnv(bytes: &[u8]) -> u64 {
 /// The cache folder: `$BRDFIT_CACHE`, else `$XDG_CACHE_HOME/brdfit`, else
 /// `$HOME/.cache/brdfit`.
 pub fn cache_dir() -> Option<PathBuf> {
-    let var = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
+    let var = |k: &str| {
+        std::env::var_os(k)
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+    };
     var("BRDFIT_CACHE")
         .or_else(|| var("XDG_CACHE_HOME").map(|p| p.join("brdfit")))
         .or_else(|| var("HOME").map(|p| p.join(".cache").join("brdfit")))

@@ -13,7 +13,7 @@
 //! A measurement is reconstructed as the posterior mean of the component coefficients given
 //! its samples (regularised least squares with the components' variances as the prior, §5 of
 //! the paper), the number of components and the noise level chosen by cross-validation on the
-//! samples themselves ([`Prior::condition`]).
+//! samples themselves ([`Posterior::condition`]).
 //!
 //! The table: θh on MERL's square-root scale (u = √(θh/90°)), θd linear over [0°, 90°], φd
 //! folded onto [0°, 90°] by reciprocity and isotropy ([`coordinates`]); lookups interpolate
@@ -198,7 +198,9 @@ mod tests {
         build(&nets(), &opts, &|_, _| {}).unwrap()
     }
 
-    /// The components are orthonormal over the cells and their variances descend.
+    /// The components are orthonormal over the cells (to 10⁻³: the smallest components'
+    /// eigenvectors carry the eigensolver's error of about ε λ_max / gap) and their variances
+    /// descend.
     #[test]
     fn components_are_orthonormal() {
         let p = small(&[]);
@@ -212,7 +214,7 @@ mod tests {
                     .map(|(a, b)| *a as f64 * *b as f64)
                     .sum();
                 let want = if i == j { 1.0 } else { 0.0 };
-                assert!((d - want).abs() < 1e-4, "{i}·{j} = {d}");
+                assert!((d - want).abs() < 1e-3, "{i}·{j} = {d}");
             }
         }
         assert!(p.variance.windows(2).all(|w| w[0] >= w[1]));
@@ -262,7 +264,9 @@ mod tests {
     #[test]
     fn posterior_recovers_known_coefficients() {
         let p = Arc::new(small(&[]));
-        let truth: Vec<f64> = (0..4).map(|k| [1.5, -0.8, 0.4, 0.2][k] * p.variance[k].sqrt()).collect();
+        let truth: Vec<f64> = (0..4)
+            .map(|k| [1.5, -0.8, 0.4, 0.2][k] * p.variance[k].sqrt())
+            .collect();
         let post0 = Posterior::condition(
             p.clone(),
             &crate::data::Dataset::new(crate::data::Quantity::Brdf, vec![("v".into(), None)]),
@@ -270,7 +274,8 @@ mod tests {
         );
         assert!(post0.is_none(), "no samples, no posterior");
         // The truth as a posterior with given coefficients (its table is the same sum).
-        let mut ds = crate::data::Dataset::new(crate::data::Quantity::Brdf, vec![("v".into(), None)]);
+        let mut ds =
+            crate::data::Dataset::new(crate::data::Quantity::Brdf, vec![("v".into(), None)]);
         let mut probe = None;
         for ti in (5..=75).step_by(10) {
             for to in (0..=80).step_by(4) {
@@ -282,7 +287,9 @@ mod tests {
                         .iter()
                         .map(|&(c, w)| {
                             w * (p.median[c] as f64
-                                + (0..4).map(|k| truth[k] * p.component(k)[c] as f64).sum::<f64>())
+                                + (0..4)
+                                    .map(|k| truth[k] * p.component(k)[c] as f64)
+                                    .sum::<f64>())
                         })
                         .sum();
                     ds.push(a, &[unmap(x, &g)]);
@@ -293,7 +300,12 @@ mod tests {
         let post = Posterior::condition(p.clone(), &ds, &PosteriorOptions::default()).unwrap();
         for k in 0..4 {
             let err = (post.coef[k] - truth[k]).abs() / p.variance[k].sqrt();
-            assert!(err < 0.05, "coefficient {k}: {} against {}", post.coef[k], truth[k]);
+            assert!(
+                err < 0.05,
+                "coefficient {k}: {} against {}",
+                post.coef[k],
+                truth[k]
+            );
         }
         let (g, y) = probe.unwrap();
         assert!((post.brdf(&g) - y).abs() < 0.02 * y + 1e-6);
@@ -311,8 +323,16 @@ mod tests {
         let bytes = std::fs::read(&f).unwrap();
         std::fs::write(&f, &bytes[..bytes.len() - 3]).unwrap();
         let e = load(&f).unwrap_err().to_string();
-        assert!(e.contains("bytes of values") && e.contains("brdfit prior build"), "{e}");
+        assert!(
+            e.contains("bytes of values") && e.contains("brdfit prior build"),
+            "{e}"
+        );
         std::fs::write(&f, b"hello").unwrap();
-        assert!(load(&f).unwrap_err().to_string().contains("not a brdfit prior"));
+        assert!(
+            load(&f)
+                .unwrap_err()
+                .to_string()
+                .contains("not a brdfit prior")
+        );
     }
 }

@@ -106,6 +106,13 @@ pub struct Tabulated {
 #[derive(Clone)]
 pub struct Base(pub std::sync::Arc<dyn Fn(&Geometry) -> f64 + Send + Sync>);
 
+impl Base {
+    /// The posterior mean of a measurement under a prior as a base.
+    pub fn posterior(p: crate::prior::Posterior) -> Base {
+        Base(std::sync::Arc::new(move |g| p.brdf(g)))
+    }
+}
+
 impl std::fmt::Debug for Base {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "Base")

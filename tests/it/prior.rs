@@ -25,7 +25,9 @@ fn all_nets() -> Vec<Nbrdf> {
 }
 
 fn net<'a>(nets: &'a [Nbrdf], name: &str) -> &'a Nbrdf {
-    nets.iter().find(|n| n.name == name || n.name == format!("merl/{name}")).unwrap()
+    nets.iter()
+        .find(|n| n.name == name || n.name == format!("merl/{name}"))
+        .unwrap()
 }
 
 fn sampled(net: &Nbrdf, grid: Grid) -> Dataset {
@@ -86,7 +88,10 @@ fn prior_reconstruction_beats_samples_alone() {
         let truth: Vec<f64> = set.iter().map(|(a, _)| net.eval_symmetric(*a)[1]).collect();
         let a = crate::truth::log_error(&set, &truth, &|g| on_prior.brdf(g));
         let b = crate::truth::log_error(&set, &truth, &|g| alone.brdf(g));
-        eprintln!("{name}: uniform half {:.4} on the prior, {:.4} alone; whole set {:.4}, {:.4}", a.1, b.1, a.0, b.0);
+        eprintln!(
+            "{name}: uniform half {:.4} on the prior, {:.4} alone; whole set {:.4}, {:.4}",
+            a.1, b.1, a.0, b.0
+        );
         wins += usize::from(a.1 < b.1);
     }
     assert!(wins >= 4, "{wins} of 5");
@@ -98,73 +103,150 @@ fn prior_reconstruction_beats_samples_alone() {
 #[test]
 #[ignore]
 fn measure_prior_references() {
-    let res: u32 = std::env::var("BRDFIT_RES").ok().and_then(|s| s.parse().ok()).unwrap_or(256);
+    let res: u32 = std::env::var("BRDFIT_RES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(256);
     let nets = all_nets();
     let t = std::time::Instant::now();
-    let kmax: usize = std::env::var("BRDFIT_K").ok().and_then(|s| s.parse().ok()).unwrap_or(64);
+    let kmax: usize = std::env::var("BRDFIT_K")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(64);
     let cache = std::path::PathBuf::from(format!("/tmp/brdfit-prior-test-{kmax}.bin"));
     let cache = cache.as_path();
     let prior = Arc::new(brdfit::prior::load(cache).unwrap_or_else(|_| {
-        let p = brdfit::prior::build(&nets, &BuildOptions { exclude: MATERIALS.iter().map(|s| s.to_string()).collect(), max_components: kmax, ..Default::default() }, &|_, _| {}).unwrap();
+        let p = brdfit::prior::build(
+            &nets,
+            &BuildOptions {
+                exclude: MATERIALS.iter().map(|s| s.to_string()).collect(),
+                max_components: kmax,
+                ..Default::default()
+            },
+            &|_, _| {},
+        )
+        .unwrap();
         brdfit::prior::save(&p, cache).unwrap();
         p
     }));
-    println!("prior: {} components, {:.1} s; variances {:?}", prior.components(), t.elapsed().as_secs_f64(),
-        prior.variance.iter().take(12).map(|v| format!("{v:.3}")).collect::<Vec<_>>());
+    println!(
+        "prior: {} components, {:.1} s; variances {:?}",
+        prior.components(),
+        t.elapsed().as_secs_f64(),
+        prior
+            .variance
+            .iter()
+            .take(12)
+            .map(|v| format!("{v:.3}"))
+            .collect::<Vec<_>>()
+    );
     let names = std::env::var("BRDFIT_MATERIALS").unwrap_or(MATERIALS.join(","));
     for name in names.split(',') {
         let net = net(&nets, name);
         let ds = sampled(net, Grid::Goniometer);
         let fill = fill(&ds);
         let mut popts = PosteriorOptions::default();
-        popts.components.extend([96, 128, 160, 200, 256].into_iter().filter(|&k| k <= kmax));
+        popts
+            .components
+            .extend([96, 128, 160, 200, 256].into_iter().filter(|&k| k <= kmax));
         let post = Arc::new(Posterior::condition(prior.clone(), &ds, &popts).unwrap());
-        println!("{name}: {} components, noise {}, cv rms {:.3}, fit rms {:.3}", post.components(), post.noise, post.cv_rms, post.fit_rms);
+        println!(
+            "{name}: {} components, noise {}, cv rms {:.3}, fit rms {:.3}",
+            post.components(),
+            post.noise,
+            post.cv_rms,
+            post.fit_rms
+        );
         let p2 = post.clone();
         let base = Base(Arc::new(move |g: &Geometry| p2.brdf(g)));
         let dims = Dims::for_samples(ds.len());
-        let on_prior = brdfit::render::reconstruct::reconstruct_on(&ds, dims, fill, Some(base.clone()));
+        let on_prior =
+            brdfit::render::reconstruct::reconstruct_on(&ds, dims, fill, Some(base.clone()));
         let on_fit = brdfit::render::reconstruct::reconstruct(&ds, dims, fill);
         // A bivariate ratio (θh, θd only) to the fit, looked up in the table, as a base.
-        let biv_dims: Vec<usize> = std::env::var("BRDFIT_BIV").unwrap_or("32,32".into()).split(',').map(|x| x.parse().unwrap()).collect();
-        let mut biv = brdfit::render::reconstruct::reconstruct(&ds, Dims([biv_dims[0], biv_dims[1], 1]), fill);
+        let biv_dims: Vec<usize> = std::env::var("BRDFIT_BIV")
+            .unwrap_or("32,32".into())
+            .split(',')
+            .map(|x| x.parse().unwrap())
+            .collect();
+        let mut biv = brdfit::render::reconstruct::reconstruct(
+            &ds,
+            Dims([biv_dims[0], biv_dims[1], 1]),
+            fill,
+        );
         if let brdfit::render::measured::Lookup::Grid { delta, .. } = biv.lookup.clone() {
             biv.lookup = brdfit::render::measured::Lookup::Ratio { delta };
         }
         let biv = Arc::new(biv);
         let b2 = biv.clone();
-        let on_biv = brdfit::render::reconstruct::reconstruct_on(&ds, dims, fill, Some(Base(Arc::new(move |g: &Geometry| b2.brdf(g)))));
+        let on_biv = brdfit::render::reconstruct::reconstruct_on(
+            &ds,
+            dims,
+            fill,
+            Some(Base(Arc::new(move |g: &Geometry| b2.brdf(g)))),
+        );
         let alone = Tabulated::exact(base.0.clone(), fill);
         // The truth's own table at the prior's resolution, and its projection on the components.
         let mut tab = vec![0f64; prior.cells()];
         let [nh, nd, np] = prior.dims;
-        for ih in 0..nh { for id in 0..nd { for ip in 0..np {
-            let a = brdfit::prior::cell_angles(prior.dims, ih, id, ip);
-            let g = Geometry::from_angles(a[0], a[1], a[2], a[3]);
-            tab[prior.cell(ih, id, ip)] = brdfit::prior::map(if g.visible() { net.eval_symmetric(a)[1] } else { 0.0 }, &g);
-        }}}
+        for ih in 0..nh {
+            for id in 0..nd {
+                for ip in 0..np {
+                    let a = brdfit::prior::cell_angles(prior.dims, ih, id, ip);
+                    let g = Geometry::from_angles(a[0], a[1], a[2], a[3]);
+                    tab[prior.cell(ih, id, ip)] = brdfit::prior::map(
+                        if g.visible() {
+                            net.eval_symmetric(a)[1]
+                        } else {
+                            0.0
+                        },
+                        &g,
+                    );
+                }
+            }
+        }
         let n = prior.cells();
-        let coef: Vec<f64> = (0..prior.components()).map(|k| (0..n).map(|c| prior.basis[k*n+c] as f64 * (tab[c] - prior.median[c] as f64)).sum()).collect();
+        let coef: Vec<f64> = (0..prior.components())
+            .map(|k| {
+                (0..n)
+                    .map(|c| prior.basis[k * n + c] as f64 * (tab[c] - prior.median[c] as f64))
+                    .sum()
+            })
+            .collect();
         let proj = Arc::new(post.with_coef(coef));
         let tab = Arc::new(tab);
         let pr = prior.clone();
-        let truth_table = Tabulated::exact(Arc::new(move |g: &Geometry| {
-            let x: f64 = pr.corners(g).iter().map(|&(c, w)| w * tab[c]).sum();
-            brdfit::prior::unmap(x, g)
-        }), fill);
+        let truth_table = Tabulated::exact(
+            Arc::new(move |g: &Geometry| {
+                let x: f64 = pr.corners(g).iter().map(|&(c, w)| w * tab[c]).sum();
+                brdfit::prior::unmap(x, g)
+            }),
+            fill,
+        );
         let projection = Tabulated::exact(Arc::new(move |g: &Geometry| proj.brdf(g)), fill);
         let set = crate::truth::test_set(22);
         let truth_f: Vec<f64> = set.iter().map(|(a, _)| net.eval_symmetric(*a)[1]).collect();
         let le = |t: &Tabulated| crate::truth::log_error(&set, &truth_f, &|g| t.brdf(g));
         let (a, b) = (le(&on_prior), le(&on_fit));
-        println!("  {name} log error (whole, uniform): ratio on posterior {:.4} {:.4}, ratio on fit {:.4} {:.4}", a.0, a.1, b.0, b.1);
+        println!(
+            "  {name} log error (whole, uniform): ratio on posterior {:.4} {:.4}, ratio on fit {:.4} {:.4}",
+            a.0, a.1, b.0, b.1
+        );
         for angle in [15.0, 95.0] {
             let s = scene(angle, res);
             let truth = exact(&s, net);
             let m = mask(&s);
             let e = |t: &Tabulated| flip_p99(&truth, &render(&s, t.clone()), &m);
-            println!("  {name} {angle}°: table {:.3}, projection {:.3}, posterior {:.3}, ratio on posterior {:.3}, ratio on fit {:.3}, bivariate {:.3}, ratio on bivariate {:.3}",
-                e(&truth_table), e(&projection), e(&alone), e(&on_prior), e(&on_fit), e(&biv), e(&on_biv));
+            println!(
+                "  {name} {angle}°: table {:.3}, projection {:.3}, posterior {:.3}, ratio on posterior {:.3}, ratio on fit {:.3}, bivariate {:.3}, ratio on bivariate {:.3}",
+                e(&truth_table),
+                e(&projection),
+                e(&alone),
+                e(&on_prior),
+                e(&on_fit),
+                e(&biv),
+                e(&on_biv)
+            );
         }
     }
 }
@@ -209,7 +291,10 @@ fn ripple_is_far_less_likely_than_the_truth() {
         let net = net(&nets, name);
         let truth = mapped_table(&prior, &|a| net.eval_symmetric(a)[1]);
         let ripple = mapped_table(&prior, &|a| net.eval_symmetric(a)[1] * bump(a));
-        let (t, r) = (prior.neg_log_density(&truth), prior.neg_log_density(&ripple));
+        let (t, r) = (
+            prior.neg_log_density(&truth),
+            prior.neg_log_density(&ripple),
+        );
         eprintln!("{name}: −ln density {t:.1} (truth) against {r:.1} (ripple)");
         assert!(r - t > 100.0, "{name}: {t} against {r}");
     }
@@ -224,8 +309,16 @@ fn prior_build_command() {
     let out = dir.path().join("p.prior");
     let w = crate::common::root().join("tests/data/nbrdf/weights-merl8.json");
     let o = run(&[
-        "prior", "build", "--weights", w.to_str().unwrap(), "--exclude", "steel",
-        "--components", "8", "-o", out.to_str().unwrap(),
+        "prior",
+        "build",
+        "--weights",
+        w.to_str().unwrap(),
+        "--exclude",
+        "steel",
+        "--components",
+        "8",
+        "-o",
+        out.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
@@ -234,10 +327,19 @@ fn prior_build_command() {
     let p = brdfit::prior::load(&out).unwrap();
     assert!(p.materials.iter().all(|m| !m.ends_with("/steel")) && p.materials.len() == 7);
     let o = run(&[
-        "prior", "build", "--weights", w.to_str().unwrap(), "--exclude", "stele", "-o",
+        "prior",
+        "build",
+        "--weights",
+        w.to_str().unwrap(),
+        "--exclude",
+        "stele",
+        "-o",
         dir.path().join("q").to_str().unwrap(),
     ]);
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success() && err.contains("--exclude stele") && err.contains("fix:"), "{err}");
+    assert!(
+        !o.status.success() && err.contains("--exclude stele") && err.contains("fix:"),
+        "{err}"
+    );
     assert!(!dir.path().join("q").exists());
 }
