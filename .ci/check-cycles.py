@@ -24,7 +24,7 @@ LAYERS = [
     {"support"},
     {"data"},
     {"model"},
-    {"simulate", "fit"},
+    {"simulate", "fit", "prior"},
     {"export", "plot", "render"},
     {"scene"},
     {"choose", "study", "inverse"},

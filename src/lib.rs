@@ -43,6 +43,7 @@ pub mod fit;
 pub mod inverse;
 pub mod model;
 pub mod plot;
+pub mod prior;
 pub mod render;
 pub mod report;
 pub mod scene;

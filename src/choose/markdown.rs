@@ -9,13 +9,18 @@ pub fn markdown(r: &ChooseResult) -> String {
     let _ = writeln!(
         s,
         "Channel: {}; measurement resampled onto a {}×{}×{} half/difference table, {:.1} % of cells \
-         filled from the {} fit. Threshold: {} ≤ {}.\n",
+         filled from the {} fit; the reference's base: {}. Threshold: {} ≤ {}.\n",
         r.channel,
         r.table.0[0],
         r.table.0[1],
         r.table.0[2],
         100.0 * r.fill_share,
         r.fill_model,
+        if r.reference_method.is_empty() {
+            "samples"
+        } else {
+            &r.reference_method
+        },
         r.threshold.metric,
         r.threshold.value
     );

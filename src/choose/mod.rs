@@ -227,6 +227,9 @@ pub struct ChooseOptions {
     /// ([`FitOptions::watch`](crate::fit::FitOptions::watch)), for a progress display to read
     /// while the fits run.
     pub watch: Option<Watch>,
+    /// What real materials are like: the reference multiplies the samples' ratios onto the
+    /// posterior under this prior instead of onto the best fit ([`crate::prior`]).
+    pub prior: Option<std::sync::Arc<crate::prior::Prior>>,
 }
 
 impl Default for ChooseOptions {
@@ -236,6 +239,7 @@ impl Default for ChooseOptions {
             threshold: DEFAULT_THRESHOLD,
             verify: 4,
             watch: None,
+            prior: None,
         }
     }
 }
@@ -413,6 +417,10 @@ pub struct ChooseResult {
     pub fill_model: String,
     /// Wall time of the resampling (s).
     pub resample_seconds: f64,
+    /// What the resampled measurement's ratios multiply: `samples: …` (the best fit) or
+    /// `prior: …` (the posterior under a prior of measured materials).
+    #[serde(default)]
+    pub reference_method: String,
     /// One entry per lighting case.
     pub cases: Vec<CaseResult>,
 }

@@ -6,7 +6,8 @@ use super::{MAX_FILL_SHARE, model_name, verdict};
 use crate::data::Dataset;
 use crate::fit::{FitResult, Watch};
 use crate::model::{Distribution, Model, ModelKind};
-use crate::render::measured::{Dims, Tabulated};
+use crate::prior::{Posterior, PosteriorOptions, Prior};
+use crate::render::measured::{Base, Dims, Tabulated};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -26,6 +27,8 @@ pub(super) struct Reference {
     pub(super) seconds: f64,
     /// Time to refit and rebuild the cross-validation folds (s).
     pub(super) fold_seconds: f64,
+    /// What the table's ratios multiply: `samples` (the best fit) or the prior's posterior.
+    pub(super) method: String,
 }
 
 impl Reference {
@@ -39,6 +42,7 @@ impl Reference {
     pub(super) fn new(
         ds: &Dataset,
         global: &[FitResult],
+        prior: Option<&Arc<Prior>>,
         progress: &(dyn Fn(&str) + Sync),
         watch: Option<&Watch>,
     ) -> Reference {
@@ -61,18 +65,33 @@ impl Reference {
         let base = bases[best];
         let fill = base.model_for(0);
         let dims = Dims::for_samples(ds.len());
+        let post =
+            prior.and_then(|p| Posterior::condition(p.clone(), ds, &PosteriorOptions::default()));
+        let method = match &post {
+            Some(p) => format!(
+                "prior: the samples' ratios to the posterior of {} materials' {} principal \
+                 components (cross-validated residual {:.3} in ln f·cos)",
+                p.prior.materials.len(),
+                p.components(),
+                p.cv_rms
+            ),
+            None => "samples: the samples' ratios to the best fit".into(),
+        };
+        let on = post.map(Base::posterior);
         // The table beside its cross-validation folds (each deterministic).
         let ((table, seconds), (folds, fold_seconds)) = rayon::join(
             || {
                 let t = Instant::now();
-                let table = Arc::new(crate::render::reconstruct::reconstruct(ds, dims, fill));
+                let table = Arc::new(crate::render::reconstruct::reconstruct_on(
+                    ds, dims, fill, on,
+                ));
                 progress("resampled table rebuilt from every sample");
                 (table, t.elapsed().as_secs_f64())
             },
             || {
                 let t = Instant::now();
                 let base = (base.model, base.dist);
-                let folds = verdict::folds(ds, dims, base, fill, progress, watch);
+                let folds = verdict::folds(ds, dims, base, fill, prior, progress, watch);
                 (folds, t.elapsed().as_secs_f64())
             },
         );
@@ -86,6 +105,7 @@ impl Reference {
             measured,
             seconds,
             fold_seconds,
+            method,
         }
     }
 

@@ -117,7 +117,13 @@ pub fn choose_with(
         })
         .collect::<Result<Vec<_>, _>>()?;
     progress("resampling the measurement and refitting its cross-validation folds");
-    let reference = Reference::new(ds, &global, progress, opts.watch.as_ref());
+    let reference = Reference::new(
+        ds,
+        &global,
+        opts.prior.as_ref(),
+        progress,
+        opts.watch.as_ref(),
+    );
     let r = &reference;
     progress(&format!(
         "resampled {} samples onto a {}×{}×{} table in {:.2} s; {:.1} % of cells filled from {}; \
@@ -150,6 +156,7 @@ pub fn choose_with(
             fill_share: r.table.fill_share(),
             fill_model: r.fill_name.clone(),
             resample_seconds: r.seconds,
+            reference_method: r.method.clone(),
             cases: results,
         },
         images,

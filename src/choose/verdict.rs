@@ -214,11 +214,16 @@ fn fold_plan(ds: &Dataset) -> Vec<(String, FoldKind, Keep<'_>)> {
 /// table of `dims`. The base is refitted so that a fold knows nothing of the samples it
 /// leaves out: the full data's fit would carry them into the fold's reconstruction, and the
 /// fold would differ from the reference less than the reference from the truth.
+///
+/// With a prior, each fold's table is rebuilt on the fold's own posterior
+/// ([`crate::prior::Posterior::condition`] on the subset): the prior is part of the
+/// reconstruction the fold re-runs.
 pub fn folds(
     ds: &Dataset,
     dims: crate::render::measured::Dims,
     (kind, dist): (crate::model::ModelKind, crate::model::Distribution),
     fill: crate::model::Model,
+    prior: Option<&Arc<crate::prior::Prior>>,
     progress: &(dyn Fn(&str) + Sync),
     watch: Option<&crate::fit::Watch>,
 ) -> Vec<Fold> {
@@ -230,7 +235,18 @@ pub fn folds(
                 .ok()
                 .filter(|r| r.usable())
                 .map_or(fill, |r| r.model_for(0));
-            let table = Arc::new(crate::render::reconstruct::reconstruct(&sub, dims, base));
+            let on = prior
+                .and_then(|p| {
+                    crate::prior::Posterior::condition(
+                        p.clone(),
+                        &sub,
+                        &crate::prior::PosteriorOptions::default(),
+                    )
+                })
+                .map(crate::render::measured::Base::posterior);
+            let table = Arc::new(crate::render::reconstruct::reconstruct_on(
+                &sub, dims, base, on,
+            ));
             progress(&format!(
                 "cross-validation fold refitted and rebuilt ({name})"
             ));

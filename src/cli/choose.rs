@@ -33,6 +33,8 @@ pub(crate) struct ChooseArgs {
     #[arg(long)]
     pub(crate) allow_large_image: bool,
     #[command(flatten)]
+    pub(crate) prior: PriorArg,
+    #[command(flatten)]
     pub(crate) load: LoadArgs,
 }
 
@@ -106,6 +108,7 @@ pub(crate) fn run_choose(a: ChooseArgs) -> Result<()> {
         threshold,
         verify: a.verify,
         watch: Some(watch.clone()),
+        prior: a.prior.load()?,
         ..Default::default()
     };
     // One step per progress line (`choose::progress_steps`). On a terminal the lines scroll

@@ -7,6 +7,7 @@ mod fit;
 mod inverse;
 mod io;
 mod plot;
+mod prior;
 mod render;
 mod report;
 mod study;
@@ -17,6 +18,7 @@ pub(crate) use fit::*;
 pub(crate) use inverse::*;
 pub(crate) use io::*;
 pub(crate) use plot::*;
+pub(crate) use prior::*;
 pub(crate) use render::*;
 pub(crate) use report::*;
 pub(crate) use study::*;
@@ -260,6 +262,9 @@ pub(crate) enum Command {
     /// Studies: speed against accuracy of every method × model, and stability from random starts.
     #[command(subcommand)]
     Study(StudyCommand),
+    /// Priors: what real materials are like (principal components of measured materials).
+    #[command(subcommand)]
+    Prior(PriorCmd),
     /// Render a scene (TOML) with Whitted's ray tracer, or Blinn's Figure 7 with `fig7`.
     #[command(
         after_help = "Examples:\n  brdfit render data/scenes/mitsuba-front.toml -o out.png\n  brdfit render fig7 --aluminium al.json --mgo mgo.json -o reports/fig7"
@@ -368,6 +373,7 @@ pub(crate) fn run(cli: Cli) -> Result<()> {
         Command::Choose(args) => run_choose(args),
         Command::Plot(cmd) => run_plot(cmd),
         Command::Study(cmd) => run_study(cmd),
+        Command::Prior(cmd) => run_prior(cmd),
         Command::Convert(args) => run_convert(args),
     }
 }

@@ -16,6 +16,9 @@
 use super::{DataError, io_error};
 use std::path::Path;
 
+/// The widest layer a network may have.
+const MAX_WIDTH: usize = 64;
+
 /// One material's network.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Nbrdf {
@@ -28,7 +31,12 @@ pub struct Nbrdf {
 /// Read a JSON file as a value, with the file and line of a syntax error.
 fn read_json(path: &Path) -> Result<serde_json::Value, DataError> {
     let text = std::fs::read_to_string(path).map_err(|e| io_error(path, &e))?;
-    serde_json::from_str(&text).map_err(|e| {
+    parse_json(path, &text)
+}
+
+/// Parse a weights file's text (`path` names it in messages).
+fn parse_json(path: &Path, text: &str) -> Result<serde_json::Value, DataError> {
+    serde_json::from_str(text).map_err(|e| {
         DataError::new(
             path,
             Some(e.line() as u64),
@@ -59,6 +67,21 @@ fn materials<'a>(
 pub fn material_names(path: &Path) -> Result<Vec<String>, DataError> {
     let v = read_json(path)?;
     Ok(materials(path, &v)?.keys().cloned().collect())
+}
+
+/// Every network of a weights file's text, in file order (`path` names the file in messages).
+pub fn parse_all(path: &Path, text: &str) -> Result<Vec<Nbrdf>, DataError> {
+    let v = parse_json(path, text)?;
+    materials(path, &v)?
+        .iter()
+        .map(|(k, m)| Nbrdf::from_json(path, k, m))
+        .collect()
+}
+
+/// Every network of a weights file, in file order.
+pub fn load_all(path: &Path) -> Result<Vec<Nbrdf>, DataError> {
+    let text = std::fs::read_to_string(path).map_err(|e| io_error(path, &e))?;
+    parse_all(path, &text)
 }
 
 /// Edit distance, for "did you mean" in messages.
@@ -183,6 +206,12 @@ impl Nbrdf {
                 }
                 w.extend(r);
             }
+            if b.len() > MAX_WIDTH {
+                return Err(bad(
+                    &bk,
+                    format!("{} units, at most {MAX_WIDTH} are supported", b.len()),
+                ));
+            }
             inputs = b.len();
             layers.push((w, b));
         }
@@ -204,20 +233,24 @@ impl Nbrdf {
         }
         let [th, _, td, pd] = super::merl::std_to_half_diff(a);
         let d = super::direction(td, pd);
-        let mut x = vec![th.sin(), 0.0, th.cos(), d[0], d[1], d[2]];
+        let mut x = [0.0; MAX_WIDTH];
+        x[..6].copy_from_slice(&[th.sin(), 0.0, th.cos(), d[0], d[1], d[2]]);
+        let mut inputs = 6;
         for (k, (w, b)) in self.layers.iter().enumerate() {
-            let mut y = b.clone();
-            for (i, xi) in x.iter().enumerate() {
-                for (j, yj) in y.iter_mut().enumerate() {
+            let mut y = [0.0; MAX_WIDTH];
+            y[..b.len()].copy_from_slice(b);
+            for (i, xi) in x[..inputs].iter().enumerate() {
+                for (j, yj) in y[..b.len()].iter_mut().enumerate() {
                     *yj += xi * w[i * b.len() + j];
                 }
             }
             if k + 1 < self.layers.len() {
-                for yj in &mut y {
+                for yj in &mut y[..b.len()] {
                     *yj = yj.max(0.0);
                 }
             }
             x = y;
+            inputs = b.len();
         }
         [0, 1, 2].map(|c| (x[c].exp() - 1.0).max(0.0))
     }

@@ -43,26 +43,7 @@ impl Dims {
     }
 }
 
-/// Continuous table coordinates in [0, 1]³ of one light/eye configuration: √(θh/90°),
-/// θd/90°, folded φd/90°. From the cosines alone: cos θh = N·H, cos θd = L·H, and
-/// N·L = cos θh cos θd − sin θh sin θd cos φd gives |cos φd|.
-#[inline]
-pub fn coordinates(g: &Geometry) -> [f64; 3] {
-    let th = g.nh.clamp(-1.0, 1.0).acos();
-    let td = g.eh.clamp(-1.0, 1.0).acos();
-    let (sh, sd) = (th.sin(), td.sin());
-    let den = sh * sd;
-    let cos_pd = if den > 1e-12 {
-        ((g.nh * g.eh - g.nl) / den).abs().min(1.0)
-    } else {
-        1.0
-    };
-    [
-        (th / FRAC_PI_2).sqrt().min(1.0),
-        (td / FRAC_PI_2).min(1.0),
-        cos_pd.acos() / FRAC_PI_2,
-    ]
-}
+pub use crate::prior::coordinates;
 
 /// How a table's cell values combine with the fill model at a lookup.
 #[derive(Clone)]
@@ -116,6 +97,26 @@ pub struct Tabulated {
     outside: Vec<bool>,
     /// The model the residuals are taken from, and which fills the empty cells.
     pub fill: Model,
+    /// A base the ratios multiply in place of `fill` (a reconstruction under a prior,
+    /// [`crate::prior::Posterior`]); `fill` still gives the ambient term's pd.
+    pub base: Option<Base>,
+}
+
+/// A BRDF a table's ratios multiply: f_r at a configuration.
+#[derive(Clone)]
+pub struct Base(pub std::sync::Arc<dyn Fn(&Geometry) -> f64 + Send + Sync>);
+
+impl Base {
+    /// The posterior mean of a measurement under a prior as a base.
+    pub fn posterior(p: crate::prior::Posterior) -> Base {
+        Base(std::sync::Arc::new(move |g| p.brdf(g)))
+    }
+}
+
+impl std::fmt::Debug for Base {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Base")
+    }
 }
 
 impl Tabulated {
@@ -199,6 +200,7 @@ impl Tabulated {
             filled,
             outside,
             fill,
+            base: None,
         }
     }
 
@@ -228,6 +230,7 @@ impl Tabulated {
             filled,
             outside,
             fill,
+            base: None,
         }
     }
 
@@ -244,6 +247,7 @@ impl Tabulated {
             filled: vec![false],
             outside: vec![false],
             fill,
+            base: None,
         }
     }
 
@@ -281,14 +285,23 @@ impl Tabulated {
             Lookup::Exact(f) => return f(g).max(0.0),
             Lookup::Grid { delta, grid } => {
                 let v = grid.log_ratio(g);
-                return ((self.fill.brdf(g) + delta) * v.exp() - delta).max(0.0);
+                return ((self.base_brdf(g) + delta) * v.exp() - delta).max(0.0);
             }
             _ => {}
         }
         let v = self.table_value(g);
         match self.lookup {
-            Lookup::Ratio { delta } => ((self.fill.brdf(g) + delta) * v.exp() - delta).max(0.0),
+            Lookup::Ratio { delta } => ((self.base_brdf(g) + delta) * v.exp() - delta).max(0.0),
             _ => (self.fill.brdf(g) + v).max(0.0),
+        }
+    }
+
+    /// f_r of what the table's ratios multiply: the base, else the fill model.
+    #[inline]
+    pub fn base_brdf(&self, g: &Geometry) -> f64 {
+        match &self.base {
+            Some(b) => (b.0)(g),
+            None => self.fill.brdf(g),
         }
     }
 

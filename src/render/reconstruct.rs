@@ -48,7 +48,7 @@
 //! front-lit ꟻLIP p99 from 0.05–0.11 to 0.016–0.045 (README).
 
 pub use super::gonio::GonioGrid;
-use super::measured::{Dims, Lookup, Tabulated, coordinates};
+use super::measured::{Base, Dims, Lookup, Tabulated, coordinates};
 use crate::data::Dataset;
 use crate::model::{Geometry, Model};
 
@@ -68,7 +68,17 @@ fn phi_scale(dims: Dims, ih: usize) -> f64 {
 /// Reconstruct the first channel of `ds` on a table of size `dims`, multiplicatively on
 /// `fill` (see the module documentation).
 pub fn reconstruct(ds: &Dataset, dims: Dims, fill: Model) -> Tabulated {
+    reconstruct_on(ds, dims, fill, None)
+}
+
+/// [`reconstruct`] multiplicatively on `base` (a reconstruction under a prior) when given,
+/// else on `fill`.
+pub fn reconstruct_on(ds: &Dataset, dims: Dims, fill: Model, base: Option<Base>) -> Tabulated {
     let [nh, nd, np] = dims.0;
+    let base_brdf = |g: &Geometry| match &base {
+        Some(b) => (b.0)(g),
+        None => fill.brdf(g),
+    };
     let cells = nh * nd * np;
     let n = [nh as f64, nd as f64, np as f64];
     let values = ds.channels.first().map(|c| &c.values[..]).unwrap_or(&[]);
@@ -86,7 +96,7 @@ pub fn reconstruct(ds: &Dataset, dims: Dims, fill: Model) -> Tabulated {
         let c = coordinates(&g);
         pos.push([c[0] * n[0], c[1] * n[1], c[2] * n[2]]);
         data.push(y);
-        model.push(fill.brdf(&g).max(0.0));
+        model.push(base_brdf(&g).max(0.0));
         keys.push([
             key(ds.theta_i[k]),
             key(ds.theta_o[k]),
@@ -164,13 +174,15 @@ pub fn reconstruct(ds: &Dataset, dims: Dims, fill: Model) -> Tabulated {
         },
         None => Lookup::Ratio { delta },
     };
-    Tabulated::from_parts(
+    let mut t = Tabulated::from_parts(
         dims,
         lookup,
         out.into_iter().map(|v| v as f32).collect(),
         filled,
         fill,
-    )
+    );
+    t.base = base;
+    t
 }
 
 /// The neighbours of a cell with their weights: ±1 in θh and θd (weight 1), ±1 in φd

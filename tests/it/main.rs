@@ -27,6 +27,7 @@ mod nothing_lost;
 mod physical_choose;
 mod pixel_refit;
 mod plots;
+mod prior;
 mod reference;
 mod render;
 mod render_aa;

@@ -198,6 +198,10 @@ fn samples_do_not_determine_the_edge_lit_highlight() {
 #[test]
 #[ignore]
 fn measure_sparse_references() {
+    let res: u32 = std::env::var("BRDFIT_RES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(512);
     println!(
         "| material | case | ꟻLIP p99 vs exact | stated reference_error | verdict (chosen / closest) |"
     );
@@ -209,10 +213,17 @@ fn measure_sparse_references() {
             .iter()
             .map(|&(n, a)| Case {
                 name: n.into(),
-                scene: scene(a, 512),
+                scene: scene(a, res),
             })
             .collect();
-        let (result, images) = choose(&ds, &cases, &ChooseOptions::default(), &|_| {}).unwrap();
+        // BRDFIT_PRIOR: a prior file (from `brdfit prior build --exclude …` without the five).
+        let opts = ChooseOptions {
+            prior: std::env::var("BRDFIT_PRIOR")
+                .ok()
+                .map(|p| Arc::new(brdfit::prior::load(std::path::Path::new(&p)).unwrap())),
+            ..Default::default()
+        };
+        let (result, images) = choose(&ds, &cases, &opts, &|_| {}).unwrap();
         for ((case, imgs), c) in result.cases.iter().zip(&images).zip(&cases) {
             let truth = exact(&c.scene, &net);
             let p99 = flip_p99(&truth, &imgs.renders[0].1, &mask(&c.scene));
@@ -295,7 +306,7 @@ fn measure_reference_quick() {
         let table = Arc::new(brdfit::render::reconstruct::reconstruct(&ds, dims, fill));
         let t_table = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let folds = brdfit::choose::folds(&ds, dims, kind, fill, &|_| {}, None);
+        let folds = brdfit::choose::folds(&ds, dims, kind, fill, None, &|_| {}, None);
         let t_folds = t.elapsed().as_secs_f64();
         for (case, angle) in [("front", 15.0), ("edge", 95.0)] {
             let s = scene(angle, res);
