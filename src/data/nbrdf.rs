@@ -27,6 +27,7 @@ pub struct Nbrdf {
 
 /// Read a JSON file as a value, with the file and line of a syntax error.
 fn read_json(path: &Path) -> Result<serde_json::Value, DataError> {
+    crate::support::input::check_regular(path, crate::support::input::Input::Data)?;
     let text = std::fs::read_to_string(path).map_err(|e| io_error(path, &e))?;
     serde_json::from_str(&text).map_err(|e| {
         DataError::new(
