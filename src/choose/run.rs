@@ -402,6 +402,9 @@ fn candidates(
 /// "lambert is enough" where 20,000 gave phong; 200 gave phong).
 pub const MIN_SAMPLES: usize = 200;
 
+/// The words that open the reason of a case with too few samples ([`CaseResult::answer`]).
+pub(super) const FEW_SAMPLES: &str = "too few samples for the cross-validation";
+
 /// Turn a case's verdict into `undetermined` where nothing supports one: no lit pixel of the
 /// test object (every model renders the same nothing), or fewer than [`MIN_SAMPLES`] samples.
 fn refuse_unsupported(c: &mut CaseResult, samples: usize) {
@@ -409,7 +412,7 @@ fn refuse_unsupported(c: &mut CaseResult, samples: usize) {
         "no pixel of the test object is lit at this resolution, so every model renders the same; render larger (--res) or light the object".to_string()
     } else if samples < MIN_SAMPLES {
         format!(
-            "the measurement holds {samples} samples, fewer than the {MIN_SAMPLES} the cross-validation needs to state the reference's own error; measure more samples"
+            "{FEW_SAMPLES}: the measurement holds {samples} samples, fewer than the {MIN_SAMPLES} the cross-validation needs to state the reference's own error; measure more samples"
         )
     } else {
         return;

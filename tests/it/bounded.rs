@@ -262,7 +262,7 @@ fn any_ray_tree_ends_within_its_budget() {
 fn scene_counts_are_bounded() {
     let base = "[camera]\neye = [0.0, 0.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 40.0\nwidth = 8\nheight = 8\n\
                 [materials.m]\nmodel = \"lambert\"\nparams = { pd = 0.5 }\n";
-    // 65 × 65 samples a pixel at most (max_level 8 took 104,650 rays a pixel).
+    // 2^6 × 2^6 squares a pixel at most (max_level 8 took 104,650 rays a pixel).
     let aa = format!("{base}[antialias]\nmode = \"adaptive\"\nthreshold = 0.0\nmax_level = 8\n");
     let e = brdfit::scene::parse_scene(&aa, Path::new(".")).unwrap_err();
     assert!(format!("{e:#}").contains("max_level"), "{e:#}");
@@ -397,7 +397,8 @@ fn choose_refuses_a_verdict_nothing_supports() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(!text.contains("is enough"), "{text}");
     assert!(
-        text.contains("holds 50 samples, fewer than the 200"),
+        text.contains("holds 50 samples, fewer than the 200")
+            && text.contains("lit: undetermined: too few samples for the cross-validation"),
         "{text}"
     );
     let json = std::fs::read_to_string(out_dir.join("choose.json")).unwrap();
@@ -464,4 +465,28 @@ fn fits_do_not_depend_on_the_data_scale_within_the_bound() {
         &["fit", f.to_str().unwrap()],
         &["below 1e-9", "fix: check the unit of the values"],
     );
+}
+
+#[test]
+fn choose_with_no_lit_pixel_says_undetermined() {
+    // At 16 × 16 Blinn's edge-lit sphere has no lit pixel: it said `chosen` all the same.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("c16");
+    let o = brdfit(&[
+        "choose",
+        "data/blinn-mgo.csv",
+        "--res",
+        "16",
+        "-q",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let edge = text.split("### edge lit").nth(1).expect("an edge-lit case");
+    assert!(
+        edge.starts_with(": undetermined: no pixel of the test object is lit"),
+        "{edge}"
+    );
+    assert!(!edge.contains("is enough"), "{edge}");
 }
