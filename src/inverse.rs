@@ -245,6 +245,9 @@ pub fn luminance_image(
     path: &std::path::Path,
     linear: bool,
 ) -> Result<(u32, u32, Vec<f64>), String> {
+    // A pipe or a device would block or never end: regular files only.
+    crate::support::input::check_regular(path, crate::support::input::Input::Data)
+        .map_err(|e| e.message)?;
     let img = image::open(path).map_err(|e| e.to_string())?;
     let is_exr = path
         .extension()

@@ -27,6 +27,10 @@ pub enum Grid {
     Merl,
 }
 
+/// Most samples `hemisphere:N` draws: 1,000,000 (about 0.1 GB of memory and an 80 MB CSV,
+/// more than the 64 MB a data file may have without `--max-input-mb`).
+pub const MAX_HEMISPHERE: usize = 1_000_000;
+
 impl Grid {
     /// Parse `hemisphere:N`, `plane:θ1,θ2,…` (degrees), `goniometer` or `merl`.
     pub fn parse(s: &str) -> Result<Grid, String> {
@@ -44,9 +48,13 @@ impl Grid {
                 .trim()
                 .parse::<usize>()
                 .ok()
-                .filter(|&n| n > 0 && n <= 100_000_000)
+                .filter(|&n| n > 0 && n <= MAX_HEMISPHERE)
                 .map(Grid::Hemisphere)
-                .ok_or_else(|| format!("bad sample count '{arg}': {fix}")),
+                .ok_or_else(|| {
+                    format!(
+                        "bad sample count '{arg}' (1 to {MAX_HEMISPHERE}: a CSV of about 80 MB; for more, write several files with different seeds): {fix}"
+                    )
+                }),
             "plane" => {
                 let t: Result<Vec<f64>, _> =
                     arg.split(',').map(|x| x.trim().parse::<f64>()).collect();

@@ -15,6 +15,16 @@ pub fn write(
     result: &ChooseResult,
     images: &[CaseImages],
 ) -> anyhow::Result<Vec<std::path::PathBuf>> {
+    // Staged and renamed whole: two runs, or a killed run, never mix their files.
+    crate::support::output::write_dir_atomic(dir, |stage| write_into(stage, result, images))
+}
+
+/// [`write`]'s files, into `dir` directly.
+fn write_into(
+    dir: &std::path::Path,
+    result: &ChooseResult,
+    images: &[CaseImages],
+) -> anyhow::Result<Vec<std::path::PathBuf>> {
     use crate::support::output::write_bytes_atomic;
     // The cases' directories in order (the list of directories created stays in case
     // order), then each case's files in parallel; the paths in case order.

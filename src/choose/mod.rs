@@ -382,6 +382,19 @@ impl CaseResult {
     /// The answer in words: "phong is enough", or "no model is within the threshold; the
     /// closest is torrance-sparrow-d3".
     pub fn answer(&self) -> String {
+        if self.verdict == Verdict::Undetermined && self.lit_pixels == 0 {
+            return format!(
+                "undetermined: no pixel of the test object is lit (closest {})",
+                self.closest
+            );
+        }
+        if self.verdict == Verdict::Undetermined && self.reason.contains(run::FEW_SAMPLES) {
+            return format!(
+                "undetermined: {} (closest {})",
+                run::FEW_SAMPLES,
+                self.closest
+            );
+        }
         if self.verdict == Verdict::Undetermined {
             return format!(
                 "undetermined: the reference's own error, ꟻLIP p99 {:.3}, exceeds the threshold \

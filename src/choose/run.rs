@@ -144,7 +144,10 @@ pub fn choose_with(
         .par_iter()
         .map(|case| run_case(case, r, &global, opts, progress))
         .collect::<Result<Vec<_>, _>>()?;
-    let (results, images): (Vec<CaseResult>, Vec<CaseImages>) = done.into_iter().unzip();
+    let (mut results, images): (Vec<CaseResult>, Vec<CaseImages>) = done.into_iter().unzip();
+    for c in &mut results {
+        refuse_unsupported(c, ds.len());
+    }
     Ok((
         ChooseResult {
             threshold: ThresholdJson {
@@ -398,4 +401,30 @@ fn candidates(
             Ok((row, judged.image, judged.map))
         })
         .collect()
+}
+
+/// Fewest samples from which `choose` states a verdict: below this the cross-validation folds
+/// (half the samples each, or slices of one sample) are rebuilt mostly from the fitted fill,
+/// so they agree with the reference whatever the truth (50 samples of a glossy material gave
+/// "lambert is enough" where 20,000 gave phong; 200 gave phong).
+pub const MIN_SAMPLES: usize = 200;
+
+/// The words that open the reason of a case with too few samples ([`CaseResult::answer`]).
+pub(super) const FEW_SAMPLES: &str = "too few samples for the cross-validation";
+
+/// Turn a case's verdict into `undetermined` where nothing supports one: no lit pixel of the
+/// test object (every model renders the same nothing), or fewer than [`MIN_SAMPLES`] samples.
+fn refuse_unsupported(c: &mut CaseResult, samples: usize) {
+    let why = if c.lit_pixels == 0 {
+        "no pixel of the test object is lit at this resolution, so every model renders the same; render larger (--res) or light the object".to_string()
+    } else if samples < MIN_SAMPLES {
+        format!(
+            "{FEW_SAMPLES}: the measurement holds {samples} samples, fewer than the {MIN_SAMPLES} the cross-validation needs to state the reference's own error; measure more samples"
+        )
+    } else {
+        return;
+    };
+    c.verdict = Verdict::Undetermined;
+    c.chosen = None;
+    c.reason = format!("the reference is not determined: {why}");
 }

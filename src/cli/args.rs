@@ -65,7 +65,7 @@ pub(crate) struct FitArgs {
     #[arg(long, value_enum)]
     pub(crate) robust: Option<brdfit::fit::RobustKind>,
     /// Drop samples with θi or θo beyond this angle (degrees).
-    #[arg(long, value_name = "DEG")]
+    #[arg(long, value_name = "DEG", value_parser = parse_max_theta)]
     pub(crate) max_theta: Option<f64>,
     /// Each sample's weight in the loss: file (the file's weights column, or 1) or solid-angle
     /// (that times the solid angle of the sample's cell on the data's own grid, so that a
@@ -93,13 +93,13 @@ pub(crate) struct FitArgs {
     pub(crate) resolution: f64,
     /// Certificate: after the fit, refine K seeded random starts and report whether any ended
     /// lower (JSON `verified`, `verify_best_cost`); a fit one of them beats is marked not usable.
-    #[arg(long, value_name = "K", default_value_t = 0)]
+    #[arg(long, value_name = "K", default_value_t = 0, value_parser = parse_verify)]
     pub(crate) verify: usize,
     /// Seed of the --verify starts.
     #[arg(long, value_name = "S", default_value_t = 1)]
     pub(crate) verify_seed: u64,
     /// Phong only: fast power approximation with γ = 2^K.
-    #[arg(long, value_name = "K")]
+    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(0..=30))]
     pub(crate) fast_pow: Option<u32>,
     /// Benchmarking: run each fit N times in this process and report the median time in
     /// `seconds` and `geometry_seconds` (the results are identical every time; the peer scripts
@@ -170,7 +170,7 @@ pub(crate) struct ModelArgs {
     #[arg(long = "set", value_delimiter = ',')]
     pub(crate) set: Vec<String>,
     /// Phong only: use the fast power approximation (1 − βλ)^γ with γ = 2^K.
-    #[arg(long, value_name = "K")]
+    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(0..=30))]
     pub(crate) fast_pow: Option<u32>,
 }
 
@@ -194,6 +194,33 @@ fn parse_resolution(s: &str) -> std::result::Result<f64, String> {
     Err(format!(
         "{why}\n  fix: e.g. --resolution 1e-6 (the default), or 0 to polish to the last digits"
     ))
+}
+
+/// Most random starts `--verify` takes: each is a full local fit, so 1,000 take about as
+/// long as 1,000 fits.
+pub(crate) const MAX_VERIFY: usize = 1000;
+
+/// `--verify K`: a count from 0 to [`MAX_VERIFY`].
+pub(crate) fn parse_verify(s: &str) -> std::result::Result<usize, String> {
+    match s.trim().parse::<u64>() {
+        Ok(k) if k <= MAX_VERIFY as u64 => Ok(k as usize),
+        Ok(_) => Err(format!(
+            "{s} random starts is above the limit of {MAX_VERIFY}\n  fix: give --verify K with K from 0 to {MAX_VERIFY} (e.g. 64)"
+        )),
+        Err(_) => Err(format!(
+            "'{s}' is not a count\n  fix: give --verify K with K from 0 to {MAX_VERIFY} (e.g. 64)"
+        )),
+    }
+}
+
+/// `--max-theta DEG`: an angle in degrees, 0 < DEG ≤ 90 (NaN and infinities are refused).
+fn parse_max_theta(s: &str) -> std::result::Result<f64, String> {
+    let why = match s.trim().parse::<f64>() {
+        Ok(d) if d > 0.0 && d <= 90.0 => return Ok(d),
+        Ok(_) => format!("{s} is not an angle above 0° and at most 90°"),
+        Err(_) => format!("'{s}' is not a number"),
+    };
+    Err(format!("{why}\n  fix: e.g. --max-theta 80"))
 }
 
 /// Parse `NAME=VALUE` items of a flag.
@@ -224,7 +251,7 @@ impl LoadArgs {
         let ds = data::load(path, &LoadOptions { format, negative })?;
         if !self.trust_units {
             for w in &ds.meta.warnings {
-                eprintln!("warning: {w}");
+                eprintln!("warning: {}", super::printable(w));
             }
         }
         match &self.channel {

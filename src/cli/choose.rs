@@ -27,9 +27,10 @@ pub(crate) struct ChooseArgs {
     #[arg(long, default_value_t = 512)]
     pub(crate) res: u32,
     /// Random starts that must not beat each fit (0 = none).
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = 4, value_parser = parse_verify)]
     pub(crate) verify: usize,
-    /// Accept a scene image larger than 8192 on a side or 16 M pixels.
+    /// Accept a scene image larger than 8192 on a side or 16 M pixels, or a fig7 --res above
+    /// 1024 (about 600 bytes of memory a pixel).
     #[arg(long)]
     pub(crate) allow_large_image: bool,
     #[command(flatten)]
@@ -93,6 +94,15 @@ pub(crate) fn run_choose(a: ChooseArgs) -> Result<()> {
             a.res
         );
     }
+    check_choose_res(a.res, a.allow_large_image)?;
+    // The output folder is checked before the work: a file in its place is refused now.
+    if a.output.exists() && !a.output.is_dir() {
+        bail!(
+            "-o {}: is a file, and choose writes a folder\n  fix: give a folder name, e.g. -o {}-choose",
+            a.output.display(),
+            a.output.with_extension("").display()
+        );
+    }
     let ds = study_input(&a.data, &a.load)?;
     let cases = if a.scene == "fig7" {
         choose::fig7_cases(a.res)
@@ -143,6 +153,22 @@ pub(crate) fn run_choose(a: ChooseArgs) -> Result<()> {
     wrote_all(&written);
     if !quiet {
         eprintln!("done in {:.1} s", t.elapsed().as_secs_f64());
+    }
+    Ok(())
+}
+
+/// Largest fig7 resolution `choose` renders without `--allow-large-image`: its images,
+/// reference tables and error maps keep about 600 bytes a pixel (`--res 2048` reached 2.7 GB,
+/// 4096 9.9 GB), so 1024 stays under 1 GB.
+const CHOOSE_MAX_RES: u32 = 1024;
+
+/// Refuse a fig7 resolution whose memory would pass 1 GB unless it was asked for.
+fn check_choose_res(res: u32, allow_large: bool) -> Result<()> {
+    if res > CHOOSE_MAX_RES && !allow_large {
+        bail!(
+            "--res {res}: choose would keep about {:.1} GB ({res}×{res} pixels at about 600 bytes each), above the 1 GB it uses without asking\n  fix: give --res {CHOOSE_MAX_RES} or less, or allow it with --allow-large-image",
+            (res as f64).powi(2) * 600.0 / 1e9
+        );
     }
     Ok(())
 }

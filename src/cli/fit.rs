@@ -193,6 +193,67 @@ pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
     }
 }
 
+/// Most fits (channels × models) one `fit` of a file runs: 1,024 (about a minute at the
+/// slowest models' 50 ms a fit); a file of more channels is refused before any fit, with the
+/// fix.
+pub(crate) const MAX_FITS: usize = 1024;
+
+/// Refuse a file whose channels × models exceed [`MAX_FITS`].
+fn check_fit_count(file: &Path, channels: usize, models: usize) -> Result<()> {
+    if channels * models > MAX_FITS {
+        bail!(
+            "{}: {channels} channels × {models} model(s) would be {} fits, above the limit of {MAX_FITS} for one run\n  fix: pick channels with --channel NAME|INDEX|<λ>nm|cie-y{}",
+            file.display(),
+            channels * models,
+            if models > 1 {
+                ", or fit one model (--model NAME) instead of --model all"
+            } else {
+                ""
+            }
+        );
+    }
+    Ok(())
+}
+
+/// Smallest largest-value a fitted file may have (f_r in 1/sr): 1e-9. The fits agree with
+/// the truth from there up (Blinn's MgO scaled by 1e-10 to 1e12 gives the same n and c3 to
+/// 0.1 %), but below about 1e-11 the bounds' absolute tolerances take ps and pd for zero (scaled
+/// by 1e-12 it ended at n = 3001 against the truth's 1.8). No measured material is that dark.
+pub(crate) const MIN_LARGEST_VALUE: f64 = 1e-9;
+
+/// Refuse a file whose values are all below [`MIN_LARGEST_VALUE`].
+fn check_scale(file: &Path, ds: &brdfit::data::Dataset) -> Result<()> {
+    let largest = ds
+        .channels
+        .iter()
+        .flat_map(|c| c.values.iter())
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(0.0f64, f64::max);
+    if largest > 0.0 && largest < MIN_LARGEST_VALUE {
+        bail!(
+            "{}: the largest value is {largest:e}, below {MIN_LARGEST_VALUE:e}: no measured material is that dark, and the fits lose their precision there\n  fix: check the unit of the values (f_r in 1/sr) and scale them (e.g. by 1e12) before fitting; ps and pd scale with them",
+            file.display()
+        );
+    }
+    Ok(())
+}
+
+/// Warn (even with --quiet, like the loaders' warnings) when samples repeat an earlier
+/// sample's angles: each copy counts as an independent measurement, so the standard errors
+/// shrink by about √(copies) although no information was added.
+fn duplicates_warning(file: &Path, ds: &brdfit::data::Dataset) {
+    let dup = ds.duplicates();
+    if dup > 0 {
+        eprintln!(
+            "warning: {}: {dup} of {} samples repeat an earlier sample's angles; each counts as a new measurement, so the standard errors are smaller than the data support (about √{:.1} too small if every sample repeats equally)\n  fix: average the repeated rows into one (with a weights column giving their count if they are independent measurements)",
+            file.display(),
+            ds.len(),
+            ds.len() as f64 / (ds.len() - dup).max(1) as f64
+        );
+    }
+}
+
 /// Samples from which a single file's fits show a progress bar on a terminal.
 const BAR_SAMPLES: usize = 100_000;
 
@@ -220,6 +281,9 @@ pub(crate) fn fit_one(
         Some(kind) => vec![(kind, dist)],
         None => fit::all_models(),
     };
+    check_fit_count(file, ds.channels.len(), kinds.len())?;
+    check_scale(file, &ds)?;
+    duplicates_warning(file, &ds);
     let (method, loss, robust) = (a.method, a.loss, a.robust);
     let fix = parse_assignments("--fix", &a.fix)?;
     // A held value outside the fitter's box would be written to a fit JSON that reading

@@ -90,7 +90,7 @@ pub(crate) struct SimulateArgs {
     #[arg(long = "set", value_delimiter = ',')]
     pub(crate) set: Vec<String>,
     /// Phong only: use the fast power approximation (1 − βλ)^γ with γ = 2^K.
-    #[arg(long, value_name = "K")]
+    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(0..=30))]
     pub(crate) fast_pow: Option<u32>,
     /// Neural-BRDF weights file (nbrdf_weights.json, Sztrajman et al. 2021): sample the
     /// network of --material instead of a model (RGB).

@@ -192,6 +192,7 @@ pub(crate) fn load_scene(path: &std::path::Path) -> anyhow::Result<brdfit::rende
     let (scene, notes) = brdfit::scene::load_scene_noted(path)?;
     for n in notes {
         // Warnings (already FILE:LINE) even with --quiet, like the loaders' warnings.
+        let n = printable(&n);
         if n.starts_with("warning: ") {
             eprintln!("{n}");
         } else if !quiet() {
@@ -218,8 +219,8 @@ pub(crate) enum Command {
         /// Random starts per configuration in each stability study (1–100).
         #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u16).range(1..=100))]
         stability_starts: u16,
-        /// Resolution of the material renders (16–4096).
-        #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(16..=4096))]
+        /// Resolution of the material renders (16–2048; 4096 took 1.8 GB).
+        #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(16..=2048))]
         render_res: u32,
     },
     /// Which model a scene needs: render the measurement itself and each model fitted where the
@@ -285,7 +286,7 @@ pub(crate) enum Command {
         #[arg(long, default_value_t = 512)]
         res: u32,
         /// Render an image larger than 8192 on a side or 16 M pixels (memory: about 35 bytes a
-        /// pixel).
+        /// pixel), or fig7 above --res 2048 (about 110 bytes a pixel).
         #[arg(long)]
         allow_large_image: bool,
         #[command(flatten)]
@@ -329,7 +330,15 @@ pub(crate) fn print(s: &str) -> Result<()> {
     }
 }
 
+/// Whether the command running takes `fit`'s flags (--fix, --start, --max-theta), so that an
+/// error's fix names only flags the command has.
+static FIT_FLAGS: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(true);
+
 pub(crate) fn run(cli: Cli) -> Result<()> {
+    FIT_FLAGS.store(
+        matches!(cli.command, Command::Fit { .. }),
+        std::sync::atomic::Ordering::Relaxed,
+    );
     match cli.command {
         Command::Info { file, load } => {
             let ds = load.load(&file)?;
@@ -418,10 +427,24 @@ pub(crate) fn main() -> ExitCode {
 /// Print an error, and the flag that changes the setting a library error names (library
 /// errors say what to change, not how to spell it on this command line).
 pub(crate) fn report_error(e: &anyhow::Error) {
-    eprintln!("error: {e:#}");
+    eprintln!("error: {}", printable(&format!("{e:#}")));
     if let Some(flag) = e.chain().find_map(setting_of).map(|s| flag(&s)) {
         eprintln!("  on the command line: {flag}");
     }
+}
+
+/// `s` with its control characters (ESC, CR, …; not the line breaks of the message itself)
+/// escaped (`\u{1b}`), so that bytes from a file never drive the terminal.
+pub(crate) fn printable(s: &str) -> String {
+    s.chars()
+        .map(|c| {
+            if c.is_control() && c != '\n' {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
 }
 
 /// The setting a library error names, if any.
@@ -439,6 +462,23 @@ fn setting_of(e: &(dyn std::error::Error + 'static)) -> Option<brdfit::support::
 /// The command-line spelling of a setting.
 pub(crate) fn flag(s: &brdfit::support::setting::Setting) -> String {
     use brdfit::support::setting::Setting;
+    if !FIT_FLAGS.load(std::sync::atomic::Ordering::Relaxed) {
+        // This command has no --fix, --start or --max-theta: name what it has, and `fit`.
+        match s {
+            Setting::Hold(p) => {
+                return format!(
+                    "this command fits with no held values; fit the data with `brdfit fit DATA --fix {p}=VALUE`"
+                );
+            }
+            Setting::Start => {
+                return "this command has no start values; fit the data with `brdfit fit DATA --start NAME=VALUE,…`".into();
+            }
+            Setting::MaxTheta => {
+                return "--negative mask|clamp, or fit the data with `brdfit fit DATA --max-theta DEG`".into();
+            }
+            _ => {}
+        }
+    }
     match s {
         Setting::NegativePolicy => {
             "--negative mask (treat as missing) or --negative clamp (set to 0)".into()

@@ -22,7 +22,16 @@ pub(crate) fn run_report(
     } else {
         files
     };
+    // The output folder is checked before the work: a file in its place is refused now.
+    if output.exists() && !output.is_dir() {
+        bail!(
+            "-o {}: is a file, and report writes a folder\n  fix: give a folder name, e.g. -o {}",
+            output.display(),
+            output.with_extension("").display().to_string() + "-report"
+        );
+    }
     let t = std::time::Instant::now();
+    let started = std::time::SystemTime::now();
     // A bar with the stage running and the time left, on a terminal only (else the stages are
     // named line by line, or not at all with --quiet).
     let bar = progress_bar(1, "report");
@@ -60,7 +69,7 @@ pub(crate) fn run_report(
     if !quiet {
         eprintln!(
             "wrote {} more files under {} (charts, renders, tables); report in {:.1} s",
-            count_files(output).saturating_sub(main.len()),
+            count_files(output, started).saturating_sub(main.len()),
             output.display(),
             t.elapsed().as_secs_f64()
         );
@@ -68,13 +77,22 @@ pub(crate) fn run_report(
     Ok(())
 }
 
-/// Files under `dir`, recursively.
-fn count_files(dir: &Path) -> usize {
+/// Files under `dir`, recursively, written since `since` (files of an earlier report left in
+/// the folder are not this run's).
+fn count_files(dir: &Path, since: std::time::SystemTime) -> usize {
     std::fs::read_dir(dir).map_or(0, |rd| {
         rd.flatten()
             .map(|e| {
                 let p = e.path();
-                if p.is_dir() { count_files(&p) } else { 1 }
+                if p.is_dir() {
+                    count_files(&p, since)
+                } else {
+                    let fresh = e
+                        .metadata()
+                        .and_then(|m| m.modified())
+                        .is_ok_and(|m| m >= since);
+                    usize::from(fresh)
+                }
             })
             .sum()
     })

@@ -20,8 +20,8 @@ pub(crate) enum StudyCommand {
         #[command(flatten)]
         load: LoadArgs,
         /// Timed runs per fit (the median is reported).
-        #[arg(long, default_value_t = 3)]
-        repeats: usize,
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u16).range(1..=100))]
+        repeats: u16,
         /// Python with numpy and scipy, to run the scipy peer side by side.
         #[arg(long, env = "BRDFIT_PEER_PYTHON")]
         peer_python: Option<String>,
@@ -115,7 +115,7 @@ pub(crate) fn run_study(cmd: StudyCommand) -> Result<()> {
             let mut rows = study::speed_accuracy_with_progress(
                 &ds,
                 truth.as_ref(),
-                repeats,
+                repeats as usize,
                 &|done, total, what| {
                     bar.set_length(total as u64);
                     bar.set_position(done as u64);

@@ -835,7 +835,12 @@ pub fn summary(ds: &Dataset) -> String {
     for (k, c) in ds.channels.iter().enumerate() {
         let (a, b) = range(&c.values);
         let name = ds.channel_label(k);
-        let _ = writeln!(s, "range {name:<6} {a:.6e} … {b:.6e}");
+        if a > b {
+            // No finite value: an empty range, said in words (not `inf … -inf`).
+            let _ = writeln!(s, "range {name:<6} no values (every sample missing)");
+        } else {
+            let _ = writeln!(s, "range {name:<6} {a:.6e} … {b:.6e}");
+        }
     }
     let policy = match ds.negative_policy {
         NegativePolicy::Mask => "masked as missing",

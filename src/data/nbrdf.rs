@@ -30,6 +30,7 @@ pub struct Nbrdf {
 
 /// Read a JSON file as a value, with the file and line of a syntax error.
 fn read_json(path: &Path) -> Result<serde_json::Value, DataError> {
+    crate::support::input::check_regular(path, crate::support::input::Input::Data)?;
     let text = std::fs::read_to_string(path).map_err(|e| io_error(path, &e))?;
     parse_json(path, &text)
 }

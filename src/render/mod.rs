@@ -97,7 +97,19 @@ pub struct Counters {
     pub reflected: Cell<u64>,
     /// Refracted rays.
     pub refracted: Cell<u64>,
+    /// The secondary-ray budget of the ray being shaded ([`RAY_TREE_BUDGET`] at a primary hit,
+    /// split among its mirror and refracted rays in proportion to their weights).
+    pub budget: Cell<f64>,
 }
+
+/// Most secondary (mirror and refracted) rays one primary ray's tree may hold: 1,024. Each
+/// ray's budget, less the ray itself, is split between its mirror and refracted rays in
+/// proportion to ks and kt, and a ray whose share is below one is not traced, so any scene
+/// ends (20 parallel planes with ks = kt = 0.99 and `max_depth = 64` would otherwise take
+/// 2^64 rays a pixel). A tree of the usual depths (a glass sphere, `max_depth` up to 10) is
+/// not cut. This bounds the tree by count where Whitted's adaptive depth (`min_weight`,
+/// Whitted 1980 §2) bounds it by weight.
+pub const RAY_TREE_BUDGET: f64 = 1024.0;
 
 impl Counters {
     fn bump(c: &Cell<u64>) {

@@ -52,7 +52,6 @@ pub fn save(img: &Image, base: &std::path::Path) -> anyhow::Result<[std::path::P
     check_finite(img)
         .map_err(|e| anyhow::anyhow!("{}: {e}", base.with_extension("exr").display()))?;
     let png = crate::support::png::encode_png(img.width, img.height, &to_srgb8(img))?;
-    crate::support::output::write_bytes_atomic(&base.with_extension("png"), &png)?;
     // The encoder's buffer at the uncompressed size (a growing one copies itself as it
     // doubles), and the pixels as one flat copy.
     let mut exr = std::io::Cursor::new(Vec::with_capacity(12 * img.pixels.len() + 4096));
@@ -62,8 +61,15 @@ pub fn save(img: &Image, base: &std::path::Path) -> anyhow::Result<[std::path::P
     image::DynamicImage::ImageRgb32F(buf)
         .write_to(&mut exr, image::ImageFormat::OpenExr)
         .map_err(|e| anyhow::anyhow!("EXR encoding failed: {e}"))?;
-    crate::support::output::write_bytes_atomic(&base.with_extension("exr"), exr.get_ref())?;
-    Ok([base.with_extension("png"), base.with_extension("exr")])
+    // Both encoded, then both written, the PNG last: when it cannot be written (a full disk)
+    // the EXR just written is removed, so a failure leaves neither file of this image.
+    let exr_path = base.with_extension("exr");
+    crate::support::output::write_bytes_atomic(&exr_path, exr.get_ref())?;
+    if let Err(e) = crate::support::output::write_bytes_atomic(&base.with_extension("png"), &png) {
+        let _ = std::fs::remove_file(&exr_path);
+        return Err(e.into());
+    }
+    Ok([base.with_extension("png"), exr_path])
 }
 
 /// Root-mean-square difference of two linear images (all channels).

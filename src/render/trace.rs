@@ -153,13 +153,22 @@ impl Scene {
             out += (albedo * i_d + m.specular * i_s) * irr * std::f64::consts::FRAC_1_PI;
         }
         if depth + 1 < self.max_depth {
-            if m.ks > 0.0 && weight * m.ks >= self.min_weight {
+            // This ray's share of the tree's budget, less itself, split by weight.
+            let budget = if depth == 0 {
+                super::RAY_TREE_BUDGET
+            } else {
+                c.budget.get()
+            };
+            let share = |k: f64| (budget - 1.0) * k / (m.ks + m.kt);
+            if m.ks > 0.0 && weight * m.ks >= self.min_weight && share(m.ks) >= 1.0 {
                 Counters::bump(&c.reflected);
+                c.budget.set(share(m.ks));
                 let d = reflect(r.d, n);
                 out += m.ks
                     * self.trace_key(&Ray { o: p + eps * n, d }, depth + 1, weight * m.ks, c, key);
             }
-            if m.kt > 0.0 && weight * m.kt >= self.min_weight {
+            c.budget.set(share(m.kt));
+            if m.kt > 0.0 && weight * m.kt >= self.min_weight && share(m.kt) >= 1.0 {
                 let eta = if inside { m.ior } else { 1.0 / m.ior };
                 match refract(r.d, n, eta) {
                     Some(d) => {

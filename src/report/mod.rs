@@ -120,6 +120,28 @@ struct DataSet<'a> {
     place: (usize, usize),
 }
 
+/// Each file's section id and folder: its file stem, with `-2`, `-3`, … after a stem an
+/// earlier file already has (compared without case, for case-blind file systems), so that
+/// `a/sample.csv` and `b/sample.csv` get sections and folders of their own.
+pub fn section_names(files: &[PathBuf]) -> Vec<String> {
+    let mut taken = std::collections::HashSet::new();
+    files
+        .iter()
+        .map(|f| {
+            let stem = f
+                .file_stem()
+                .map_or("data".into(), |s| s.to_string_lossy().into_owned());
+            let mut name = stem.clone();
+            let mut k = 2;
+            while !taken.insert(name.to_lowercase()) {
+                name = format!("{stem}-{k}");
+                k += 1;
+            }
+            name
+        })
+        .collect()
+}
+
 /// Write the report for `files` into `opts.out`: index.html, report.md, results.json,
 /// timings.json, and one folder per data set. The steps are the functions below, in order.
 pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
@@ -132,11 +154,10 @@ pub fn report(files: &[PathBuf], opts: &ReportOptions) -> Result<()> {
     let mut timings = serde_json::Map::new();
     let mut toc = Vec::new();
     let mut summary = Vec::new();
+    let names = section_names(files);
     for (fi, file) in files.iter().enumerate() {
         let t0 = Instant::now();
-        let name = file
-            .file_stem()
-            .map_or("data".into(), |s| s.to_string_lossy().into_owned());
+        let name = names[fi].clone();
         stage(opts, fi, files.len(), 0, &format!("{name}: loading"));
         let full = data::load(file, &LoadOptions::default())?;
         let (ds, channel_note) = data::representative_channel(&full).map_err(anyhow::Error::msg)?;

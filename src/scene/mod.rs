@@ -58,7 +58,7 @@ mod values;
 
 pub use crate::render::{Lighting, fig7_scene};
 pub use obj::read_obj;
-pub use parse::{parse_scene, parse_scene_noted, plane_axes};
+pub use parse::{MAX_LIGHTS, MAX_OBJECTS, parse_scene, parse_scene_noted, plane_axes};
 
 use crate::render::Scene;
 use anyhow::{Result, anyhow};

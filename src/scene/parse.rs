@@ -13,6 +13,13 @@ use anyhow::{Result, anyhow};
 use glam::DVec3;
 use std::path::Path;
 
+/// Most objects a scene file may hold: 1,000 (each ray tests each; 10,000 spheres took over
+/// 120 s at 256 × 256). A mesh counts as one.
+pub const MAX_OBJECTS: usize = 1000;
+
+/// Most lights a scene file may hold: 64 (a shadow ray toward each at every hit).
+pub const MAX_LIGHTS: usize = 64;
+
 /// Read a scene from TOML text; `dir` resolves relative paths (fit JSON, OBJ). Every value is
 /// checked against its range (README, "Scene files"); unknown, missing and duplicate keys are
 /// errors naming the key. `materials[0]` of the result is the test object of `brdfit choose`:
@@ -30,6 +37,29 @@ pub fn parse_scene_noted(text: &str, dir: &Path, notes: &mut Vec<String>) -> Res
     let lines = Lines::new(text);
     let camera = camera(&f.camera, &lines)?;
     let (names, materials) = materials(&f, dir, &lines, notes)?;
+    // Every ray tests every object (only a mesh's triangles are in a BVH), and every hit
+    // sends a shadow ray toward each light: both counts are bounded.
+    for (what, n, most, fix) in [
+        (
+            "objects",
+            f.objects.len(),
+            MAX_OBJECTS,
+            "merge small shapes into one OBJ mesh (its triangles are searched through a BVH)",
+        ),
+        (
+            "lights",
+            f.lights.len(),
+            MAX_LIGHTS,
+            "merge nearby lights into one",
+        ),
+    ] {
+        if n > most {
+            return Err(anyhow!(
+                "{n} {what}, above the limit of {most} (each ray tests every object and sends a shadow ray toward every light, so the time grows with both)\n  fix: {fix}"
+            ))
+            .map_err(lines.at(&[K(what), I(most)]));
+        }
+    }
     let mut objects = Vec::new();
     for (k, o) in f.objects.iter().enumerate() {
         objects.push(object(k, o, &names, dir, &lines)?);
@@ -366,7 +396,7 @@ fn antialias(aa: &Option<AaSpec>, lines: &Lines) -> Result<AntiAlias> {
                             100.0,
                         )
                         .map_err(at_aa("threshold"))?,
-                        max_level: count("`antialias.max_level`", a.max_level.unwrap_or(3), 0, 8)
+                        max_level: count("`antialias.max_level`", a.max_level.unwrap_or(3), 0, 6)
                             .map_err(at_aa("max_level"))?,
                         block: match a.block.unwrap_or(1) {
                             b @ (1 | 2 | 4) => b,

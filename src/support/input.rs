@@ -150,15 +150,7 @@ impl Limited<std::fs::File> {
 /// file whose size already exceeds the limit; the reader returned fails past the limit
 /// (a file that grew, or a device such as `/dev/zero`).
 pub fn open_limited(path: &Path, kind: Input) -> Result<Limited<std::fs::File>, DataError> {
-    let meta = std::fs::metadata(path).map_err(|e| io_error(path, &e))?;
-    if meta.is_dir() {
-        return Err(DataError::new(
-            path,
-            None,
-            "is a directory",
-            "give the path of a file inside it",
-        ));
-    }
+    let meta = check_regular(path, kind)?;
     if meta.len() > limit(kind) {
         return Err(too_large(path, kind, Some(meta.len())));
     }
@@ -169,6 +161,58 @@ pub fn open_limited(path: &Path, kind: Input) -> Result<Limited<std::fs::File>, 
         path: path.to_path_buf(),
         kind,
     })
+}
+
+/// What kind of file `t` is, for a message: "a character device", "a named pipe (FIFO)"...
+pub fn kind_of(t: std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_char_device() {
+            return "a character device";
+        }
+        if t.is_block_device() {
+            return "a block device";
+        }
+        if t.is_fifo() {
+            return "a named pipe (FIFO)";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    let _ = t;
+    "a special file"
+}
+
+/// Refuse an input that is not a regular file, before it is opened: a folder, a named pipe
+/// (FIFO, `<(cat f)`, `/dev/stdin` on a pipe), a device or a socket. Opening a named pipe
+/// blocks until someone writes to it, and a pipe can be read only once while the loaders
+/// read a file twice (the format from its first bytes, then the whole). A symbolic link to a
+/// regular file is followed. Returns the file's metadata.
+pub fn check_regular(path: &Path, kind: Input) -> Result<std::fs::Metadata, DataError> {
+    let meta = std::fs::metadata(path).map_err(|e| io_error(path, &e))?;
+    if meta.is_dir() {
+        return Err(DataError::new(
+            path,
+            None,
+            "is a directory",
+            "give the path of a file inside it",
+        ));
+    }
+    if !meta.is_file() {
+        return Err(DataError::new(
+            path,
+            None,
+            format!(
+                "is {}, not a regular file (brdfit reads every {} and other input only from a regular file)",
+                kind_of(meta.file_type()),
+                kind.what()
+            ),
+            "save the input to a file first (e.g. `cat … > FILE`) and give that file",
+        ));
+    }
+    Ok(meta)
 }
 
 /// Read all of `path`, input of `kind`, within its size limit.
@@ -290,13 +334,32 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_device_stops_at_the_limit() {
-        // /dev/zero has metadata length 0 and never ends: only the limit + 1 read stops it.
+    fn a_device_is_refused_before_it_is_read() {
+        // /dev/zero has metadata length 0 and never ends: it is refused unopened.
         let e = read_limited(Path::new("/dev/zero"), Input::Scene).unwrap_err();
-        assert!(e.message.contains("more than 1048576 bytes"), "{e}");
-        assert_eq!(
-            e.setting,
-            Some(crate::support::setting::Setting::MaxInputSize)
+        assert!(
+            e.message.contains("a character device, not a regular file"),
+            "{e}"
+        );
+        assert!(e.fix.contains("save the input to a file"), "{e}");
+    }
+
+    #[test]
+    fn a_reader_stops_one_byte_past_the_limit() {
+        // A file that grows past the limit after the size check (here: /dev/zero read
+        // through the reader directly) fails at limit + 1 bytes.
+        let mut r = Limited {
+            inner: std::fs::File::open("/dev/zero").unwrap(),
+            left: 1 << 10,
+            path: PathBuf::from("/dev/zero"),
+            kind: Input::Scene,
+        };
+        let mut buf = Vec::new();
+        let e = r.read_to_end(&mut buf).unwrap_err();
+        assert_eq!(buf.len(), 1 << 10);
+        assert!(
+            io_error(Path::new("x"), &e).message.contains("more than"),
+            "{e}"
         );
     }
 

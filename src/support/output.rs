@@ -168,28 +168,6 @@ fn cannot_write(path: &Path, e: io::Error) -> io::Error {
     refusal(e.kind(), path, format!("cannot write: {e}"), fix)
 }
 
-/// What kind of file `t` is, for a message: "a character device", "a named pipe (FIFO)"...
-fn kind_of(t: std::fs::FileType) -> &'static str {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt;
-        if t.is_char_device() {
-            return "a character device";
-        }
-        if t.is_block_device() {
-            return "a block device";
-        }
-        if t.is_fifo() {
-            return "a named pipe (FIFO)";
-        }
-        if t.is_socket() {
-            return "a socket";
-        }
-    }
-    let _ = t;
-    "a special file"
-}
-
 /// Refuse an output `path` that exists and is not a regular file: a folder, a device
 /// (`/dev/null`), a named pipe or a socket would be replaced by a regular file. A symbolic
 /// link is replaced itself, never written through, unless it points to a folder. A path that
@@ -208,15 +186,22 @@ pub fn check_target(path: &Path) -> io::Result<()> {
             format!("give a file name (e.g. `{}`)", path.join("out").display()),
         ));
     }
-    if t.is_file() || t.is_symlink() {
+    if t.is_file() {
         return Ok(());
     }
+    // A link is replaced itself, so a dangling link or a link to a regular file is fine; a
+    // link to a device or a pipe is refused like the device: its name says where output went.
+    let t = match std::fs::metadata(path) {
+        Ok(m) if t.is_symlink() && !m.is_file() => m.file_type(),
+        _ if t.is_symlink() => return Ok(()),
+        _ => t,
+    };
     Err(refusal(
         io::ErrorKind::InvalidInput,
         path,
         format!(
             "is {}, not a regular file; brdfit replaces only regular files",
-            kind_of(t)
+            crate::support::input::kind_of(t)
         ),
         "give a path to a regular file or a new name",
     ))
@@ -303,6 +288,129 @@ fn explain(e: io::Error, dir: &Path) -> io::Error {
     }
 }
 
+/// Write the folder `dir` whole: `fill` writes a run's files into a staging folder beside it
+/// (`.NAME.brdfit-tmp-PID`), which then takes `dir`'s place by renaming; files already in
+/// `dir` that the run did not write are moved into the new folder. Two runs at once, or a run
+/// killed part-way, therefore never leave one run's files beside another's: `dir` holds one
+/// whole run (the last to finish), and a killed run leaves only its staging folder, removed
+/// by the next run. Returns `fill`'s paths moved to `dir`.
+pub fn write_dir_atomic<E>(
+    dir: &Path,
+    fill: impl FnOnce(&Path) -> Result<Vec<PathBuf>, E>,
+) -> Result<Vec<PathBuf>, E>
+where
+    E: From<io::Error>,
+{
+    // A folder named `.` or `..` cannot be renamed: written in place.
+    let Some(name) = dir.file_name().map(|n| n.to_string_lossy().into_owned()) else {
+        create_dir(dir)?;
+        return fill(dir);
+    };
+    let parent = match dir.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    create_dir(&parent)?;
+    remove_stale_dirs(&parent, &name);
+    let pid = std::process::id();
+    let stage = parent.join(format!(".{name}.brdfit-tmp-{pid}"));
+    let old = parent.join(format!(".{name}.brdfit-old-{pid}"));
+    let _ = std::fs::remove_dir_all(&stage);
+    std::fs::create_dir(&stage).map_err(|e| explain(e, &parent))?;
+    let created_before = dir.exists();
+    let staged = match fill(&stage) {
+        Ok(p) => p,
+        Err(e) => {
+            let _ = std::fs::remove_dir_all(&stage);
+            return Err(e);
+        }
+    };
+    // The folders made inside the staging folder are not announced; `dir` itself is, if new.
+    let _ = take_created();
+    let mut tries = 0;
+    loop {
+        let had = match std::fs::rename(dir, &old) {
+            Ok(()) => true,
+            Err(e) if e.kind() == io::ErrorKind::NotFound => false,
+            Err(e) => {
+                let _ = std::fs::remove_dir_all(&stage);
+                return Err(cannot_write(dir, e).into());
+            }
+        };
+        match std::fs::rename(&stage, dir) {
+            Ok(()) => {
+                if had {
+                    keep_others(&old, dir);
+                    let _ = std::fs::remove_dir_all(&old);
+                }
+                break;
+            }
+            // Another run put its folder in place between the two renames: try again.
+            Err(_) if tries < 8 => {
+                if had {
+                    let _ = std::fs::rename(&old, dir);
+                }
+                tries += 1;
+            }
+            Err(e) => {
+                if had {
+                    let _ = std::fs::rename(&old, dir);
+                }
+                let _ = std::fs::remove_dir_all(&stage);
+                return Err(cannot_write(dir, e).into());
+            }
+        }
+    }
+    if !created_before && let Ok(mut c) = CREATED.lock() {
+        c.push(dir.to_path_buf());
+    }
+    Ok(staged
+        .into_iter()
+        .map(|p| match p.strip_prefix(&stage) {
+            Ok(rel) => dir.join(rel),
+            Err(_) => p,
+        })
+        .collect())
+}
+
+/// Move the entries of `old` that `new` lacks into `new` (a user's own files in an output
+/// folder stay); a folder the run wrote replaces the old one whole.
+fn keep_others(old: &Path, new: &Path) {
+    let Ok(entries) = std::fs::read_dir(old) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let target = new.join(e.file_name());
+        if std::fs::symlink_metadata(&target).is_err() {
+            let _ = std::fs::rename(e.path(), &target);
+        }
+    }
+}
+
+/// Remove staging folders of `parent/name` left by runs no longer running.
+fn remove_stale_dirs(parent: &Path, name: &str) {
+    let proc_ = Path::new("/proc");
+    if !proc_.join("self").exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(parent) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let n = e.file_name();
+        let Some(pid) = n.to_str().and_then(|n| {
+            n.strip_prefix(&format!(".{name}.brdfit-tmp-"))
+                .or_else(|| n.strip_prefix(&format!(".{name}.brdfit-old-")))
+                .and_then(|p| p.parse::<u32>().ok())
+        }) else {
+            continue;
+        };
+        if pid != std::process::id() && !proc_.join(pid.to_string()).exists() {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
+}
+
 /// [`write_atomic`] for a byte buffer.
 pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
     write_atomic(path, |w| w.write_all(bytes))
@@ -358,6 +466,54 @@ mod tests {
             "{e}"
         );
         assert_eq!(std::fs::read(&blocker).unwrap(), b"x");
+    }
+
+    #[test]
+    fn a_folder_is_replaced_whole_or_not_at_all() {
+        let top = tempfile::tempdir().unwrap();
+        let dir = top.path().join("run");
+        std::fs::create_dir(&dir).unwrap();
+        std::fs::write(dir.join("result.json"), b"old").unwrap();
+        std::fs::write(dir.join("notes.txt"), b"mine").unwrap();
+        // A run that fails part-way (as a killed one would stop) leaves the old run whole.
+        let r: io::Result<Vec<PathBuf>> = write_dir_atomic(&dir, |stage| {
+            write_bytes_atomic(&stage.join("image.png"), b"new")?;
+            Err(io::Error::other("stopped"))
+        });
+        assert!(r.is_err());
+        assert!(!dir.join("image.png").exists());
+        assert_eq!(std::fs::read(dir.join("result.json")).unwrap(), b"old");
+        // A run that ends replaces the run's files together; the user's file stays.
+        let wrote = write_dir_atomic(&dir, |stage| -> io::Result<Vec<PathBuf>> {
+            write_bytes_atomic(&stage.join("image.png"), b"new")?;
+            write_bytes_atomic(&stage.join("result.json"), b"new")?;
+            Ok(vec![stage.join("image.png"), stage.join("result.json")])
+        })
+        .unwrap();
+        assert_eq!(wrote, vec![dir.join("image.png"), dir.join("result.json")]);
+        assert_eq!(std::fs::read(dir.join("result.json")).unwrap(), b"new");
+        assert_eq!(std::fs::read(dir.join("notes.txt")).unwrap(), b"mine");
+        // Nothing staged is left beside the folder.
+        let names: Vec<String> = std::fs::read_dir(top.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names, vec!["run".to_string()]);
+    }
+
+    #[test]
+    fn a_link_to_a_device_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let link = dir.path().join("out.csv");
+        std::os::unix::fs::symlink("/dev/null", &link).unwrap();
+        let e = write_bytes_atomic(&link, b"x").unwrap_err().to_string();
+        assert!(e.contains("a character device, not a regular file"), "{e}");
+        assert!(
+            std::fs::symlink_metadata(&link)
+                .unwrap()
+                .file_type()
+                .is_symlink()
+        );
     }
 
     #[test]

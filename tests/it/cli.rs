@@ -292,7 +292,7 @@ fn usage_errors_exit_2() {
     assert_eq!(brdfit(&["frobnicate"]).status.code(), Some(2));
     // A count out of its stated range is refused with the range (exit 2), never clamped.
     for (args, range) in [
-        (&["report", "--render-res", "5000"][..], "16..=4096"),
+        (&["report", "--render-res", "5000"][..], "16..=2048"),
         (&["report", "--stability-starts", "0"][..], "1..=100"),
         (&["fit", "data/blinn-mgo.csv", "--jobs", "0"][..], "1..=64"),
         (&["study", "render", "--res", "4"][..], "8..=2048"),

@@ -4,6 +4,7 @@
 
 mod abc;
 mod albedo;
+mod bounded;
 mod choose;
 mod cli;
 mod cli_fit;

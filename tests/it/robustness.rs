@@ -518,7 +518,7 @@ fn scene_catalogue_refuses_each_case_naming_the_key() {
                 "center = [0.0, 0.7, 0.0]\nradius = 0.7",
                 "path = \"/dev/null\"",
             )],
-            "holds no triangle",
+            "/dev/null: is a character device, not a regular file",
         ),
         (
             vec![
@@ -528,14 +528,14 @@ fn scene_catalogue_refuses_each_case_naming_the_key() {
                     "path = \"/dev/zero\"",
                 ),
             ],
-            "above the limit",
+            "/dev/zero: is a character device, not a regular file",
         ),
         (
             vec![(
                 "model = \"torrance-sparrow\"\nparams = { n = 1.8, c3 = 0.3, ps = 0.6, pd = 0.4 }",
                 "fit = \"/dev/zero\"",
             )],
-            "above the limit of 4194304 bytes",
+            "/dev/zero: is a character device, not a regular file",
         ),
         (
             vec![("intensity = 40.0", "intensity = 40.0\nintensity = 41.0")],
@@ -615,22 +615,18 @@ fn scene_catalogue_refuses_each_case_naming_the_key() {
 /// --max-input-mb changes the limit.
 #[test]
 fn size_limits_stop_devices_and_large_files() {
+    // A device is refused unopened (it is not a regular file), whatever the format.
     refused(
         &["render", "/dev/zero", "-o", "/nonexistent/x.png"],
-        &[
-            "/dev/zero",
-            "scene file",
-            "above the limit",
-            "--max-input-mb",
-        ],
+        &["/dev/zero", "scene file", "not a regular file", "fix:"],
     );
     refused(
         &["info", "/dev/zero", "--format", "csv"],
-        &["/dev/zero", "data file", "above the limit"],
+        &["/dev/zero", "data file", "not a regular file"],
     );
     refused(
         &["info", "/dev/zero", "--format", "astm"],
-        &["above the limit"],
+        &["not a regular file"],
     );
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("two-mb.csv");

@@ -29,7 +29,7 @@ fn stated_range(section: &str, key: &str) -> Option<(f64, f64, bool)> {
         "min_weight" => (0.0, 1.0, false),
         "ambient" | "background" => (0.0, 1e6, false),
         "threshold" => (0.0, 100.0, false),
-        "max_level" => (0.0, 8.0, false),
+        "max_level" => (0.0, 6.0, false),
         "samples" => (1.0, 64.0, false),
         "intensity" => (0.0, 1e12, false),
         "color" if light => (0.0, 1e6, false),
