@@ -67,12 +67,15 @@ pub(super) fn certify(
         unusable,
     }
 }
+/// The start of the reason a fit fails its first-order conditions.
+pub(super) const FIRST_ORDER: &str = "first-order conditions fail";
+
 /// The first-order (KKT) conditions of the box-constrained problem at the solution, in solver
 /// variables: an interior variable has a scaled gradient |g_k| / (√(JᵀJ)_kk ‖r‖) near 0; one at
 /// a bound has its gradient pointing out of the box (only an inward part counts). Returns the
 /// largest violation and, when it exceeds [`KKT_TOLERANCE`], why.
-pub(super) fn first_order(
-    p: &BrdfProblem,
+pub(super) fn first_order<P: Problem>(
+    p: &P,
     sol: &Solution,
     robust: Robust,
     names: &[String],
@@ -120,7 +123,7 @@ pub(super) fn first_order(
             _ => "",
         };
         format!(
-            "first-order conditions fail: the cost gradient in {}{at} is {} (scaled; tolerance {})",
+            "{FIRST_ORDER}: the cost gradient in {}{at} is {} (scaled; tolerance {})",
             names[k],
             readable(worst.0),
             readable(KKT_TOLERANCE)

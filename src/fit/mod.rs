@@ -26,6 +26,7 @@
 
 mod argmin_peer;
 mod checks;
+pub mod conserve;
 mod dispatch;
 mod fitfile;
 mod format;

@@ -8,6 +8,7 @@ mod choose;
 mod cli;
 mod cli_fit;
 mod cli_hints;
+mod conserve;
 mod common;
 mod corners;
 mod corpus;
