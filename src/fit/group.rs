@@ -134,6 +134,7 @@ pub(super) fn fit_group(
         aic: loglike_term + 2.0 * kf,
         n_free: nfree,
         ranges: u.ranges,
+        interval_level: super::stats::INTERVAL_LEVEL,
         at_bound: u.at_bound,
         kkt_violation: checks.kkt_violation,
         verification: checks.verification,

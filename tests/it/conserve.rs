@@ -26,7 +26,7 @@ fn albedo(f: &brdfit::FitResult, c: usize, deg: f64) -> f64 {
 #[test]
 fn satin_recommendation_is_the_best_physical_fit() {
     let ds = load("tests/data/satin_rosaline_rgb.csv")
-        .select(&brdfit::data::ChannelSelect::Name("g".into()))
+        .select(&brdfit::ChannelSelect::Name("g".into()))
         .unwrap();
     let opts: Vec<FitOptions> = brdfit::fit::all_models()
         .into_iter()

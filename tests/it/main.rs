@@ -18,6 +18,7 @@ mod fit_models;
 mod flip;
 mod ggx;
 mod ggx2;
+mod intervals;
 mod inverse;
 mod loaders;
 mod model_props;
