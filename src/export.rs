@@ -167,8 +167,10 @@ pub fn mitsuba(c: &Colour, id: &str) -> Result<String, String> {
         },
         match (refit.is_some(), compromise) {
             (false, false) => "The target evaluates the same f_r (exact).",
-            (true, _) => "The target evaluates the refitted ggx-smith below exactly, the fitted model only approximately (the refit's error follows).",
-            (false, true) => "The target evaluates the f_r below exactly; the channels share one lobe, a compromise (the note follows).",
+            (true, _) =>
+                "The target evaluates the refitted ggx-smith below exactly, the fitted model only approximately (the refit's error follows).",
+            (false, true) =>
+                "The target evaluates the f_r below exactly; the channels share one lobe, a compromise (the note follows).",
         }
     );
     if let Some(r) = &refit {

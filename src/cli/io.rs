@@ -339,9 +339,7 @@ pub(crate) fn run_convert(args: ConvertArgs) -> Result<()> {
         data::write_csv(&ds, &output)?;
     }
     wrote(&output);
-    if to_merl
-        && let Ok(cells) = data::merl::tabulate(&ds)
-    {
+    if to_merl && let Ok(cells) = data::merl::tabulate(&ds) {
         // A goniometer's samples fill a sliver of MERL's cells: say so.
         let filled = cells.iter().filter(|c| c.iter().any(|&v| v >= 0.0)).count();
         if filled * 2 < cells.len() {

@@ -116,19 +116,22 @@ pub(super) fn first_order<P: Problem>(
             worst = (v, Some((k, side)));
         }
     }
-    let why = worst.1.filter(|_| worst.0 > KKT_TOLERANCE).map(|(k, side)| {
-        let at = match side {
-            -1 => " at its lower bound, pointing into the range",
-            1 => " at its upper bound, pointing into the range",
-            _ => "",
-        };
-        format!(
-            "{FIRST_ORDER}: the cost gradient in {}{at} is {} (scaled; tolerance {})",
-            names[k],
-            readable(worst.0),
-            readable(KKT_TOLERANCE)
-        )
-    });
+    let why = worst
+        .1
+        .filter(|_| worst.0 > KKT_TOLERANCE)
+        .map(|(k, side)| {
+            let at = match side {
+                -1 => " at its lower bound, pointing into the range",
+                1 => " at its upper bound, pointing into the range",
+                _ => "",
+            };
+            format!(
+                "{FIRST_ORDER}: the cost gradient in {}{at} is {} (scaled; tolerance {})",
+                names[k],
+                readable(worst.0),
+                readable(KKT_TOLERANCE)
+            )
+        });
     (worst.0, why)
 }
 

@@ -74,9 +74,10 @@ impl<'a> Conserved<'a> {
                     Slot::Fixed(v) if v == 0.0 => continue,
                     Slot::Fixed(_) => return None,
                     Slot::Free(k) => {
-                        let shared = inner.layout.iter().enumerate().any(|(d, s)| {
-                            d != c && s[..np].iter().any(|x| *x == Slot::Free(k))
-                        });
+                        let shared =
+                            inner.layout.iter().enumerate().any(|(d, s)| {
+                                d != c && s[..np].iter().any(|x| *x == Slot::Free(k))
+                            });
                         if shared || inner.transforms[k].scale != Scale::Linear {
                             return None;
                         }
@@ -190,7 +191,10 @@ fn max_rho(m: &Model, angles: &[f64]) -> f64 {
     angles
         .iter()
         .map(|&t| directional_albedo(m, t))
-        .fold(f64::NEG_INFINITY, |a, b| if b.is_nan() { b } else { a.max(b) })
+        .fold(
+            f64::NEG_INFINITY,
+            |a, b| if b.is_nan() { b } else { a.max(b) },
+        )
 }
 
 impl Problem for Conserved<'_> {

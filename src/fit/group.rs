@@ -1,18 +1,18 @@
 //! One fit of one channel, or a joint fit of several, through the stages in order.
 
 use super::checks::certify;
+use super::conserve;
 use super::lsq::{self, Robust};
 use super::options::{FitError, FitOptions, fit_error};
-use super::conserve;
 use super::physical;
 use super::problem::BrdfProblem;
-use super::setup::Layout;
-use super::solve::Search;
-use crate::model::readable;
 use super::result::{FitResult, UNCONVERGED};
+use super::setup::Layout;
 use super::setup::{ChannelRows, check_data, layout, problem};
+use super::solve::Search;
 use super::solve::{self, search};
 use super::stats::{reported, uncertainty};
+use crate::model::readable;
 use crate::support::setting::Setting;
 use std::time::Instant;
 
@@ -100,7 +100,15 @@ pub(super) fn fit_group(
         // The profiles refit the unconstrained problem, whose minimum lies elsewhere.
         stat_opts.to_mut().profile = false;
     }
-    let u = uncertainty(&full, &found.sol, &theta, cost, &lay, &stat_opts, &mut warnings);
+    let u = uncertainty(
+        &full,
+        &found.sol,
+        &theta,
+        cost,
+        &lay,
+        &stat_opts,
+        &mut warnings,
+    );
     let (params, stderr, free, correlation) = reported(&lay, &theta, &u);
     let rss = 2.0 * cost;
     let mf = m as f64;
@@ -167,7 +175,10 @@ fn hold_energy(
         .models(&found.sol.x)
         .iter()
         .map(crate::model::albedo::max_albedo)
-        .fold((0.0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
+        .fold(
+            (0.0, f64::NEG_INFINITY),
+            |a, b| if b.1 > a.1 { b } else { a },
+        );
     let held = conserve::constrain(
         full,
         &found.sol.x,

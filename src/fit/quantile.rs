@@ -94,7 +94,11 @@ pub fn t_two_sided(t: f64, nu: f64) -> f64 {
 /// quantile where ν is not finite or above 1e7.
 pub fn t_quantile(level: f64, nu: f64) -> f64 {
     let alpha = 1.0 - level;
-    let nu = if nu.is_finite() { nu.clamp(1.0, 1e7) } else { 1e7 };
+    let nu = if nu.is_finite() {
+        nu.clamp(1.0, 1e7)
+    } else {
+        1e7
+    };
     let (mut lo, mut hi) = (0.0f64, 1.0f64);
     while t_two_sided(hi, nu) > alpha && hi < 1e12 {
         hi *= 2.0;

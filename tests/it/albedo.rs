@@ -195,7 +195,10 @@ fn the_low_index_message_names_each_lobe() {
         &[0.05, 0.0, 0.2, 1.695e6, 1.0001, 0.3],
     );
     let why = model_problems(&m);
-    let low = why.iter().find(|w| w.contains("lower bound")).expect("rule 3");
+    let low = why
+        .iter()
+        .find(|w| w.contains("lower bound"))
+        .expect("rule 3");
     assert!(
         low.contains("ps1 = 0") && low.contains("ps2 = 1.695e6"),
         "{low}"
@@ -223,7 +226,11 @@ fn fit_marks_an_albedo_above_one() {
         .remove(0);
     assert!((held.get("pd").unwrap() - 1.0).abs() < 1e-9, "{held:?}");
     assert!(held.usable(), "{:?}", held.unusable);
-    assert!(held.warnings.iter().any(|w| w.starts_with(brdfit::fit::conserve::HELD)));
+    assert!(
+        held.warnings
+            .iter()
+            .any(|w| w.starts_with(brdfit::fit::conserve::HELD))
+    );
     let mut free = brdfit::FitOptions::new(ModelKind::Lambert);
     free.conserve = false;
     let f = brdfit::fit(&ds, &free).unwrap().remove(0);

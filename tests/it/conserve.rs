@@ -51,7 +51,10 @@ fn satin_recommendation_is_the_best_physical_fit() {
         rec.label()
     );
     let mut held = 0;
-    for f in fits.iter().filter(|f| f.warnings.iter().any(|w| w.starts_with(HELD))) {
+    for f in fits
+        .iter()
+        .filter(|f| f.warnings.iter().any(|w| w.starts_with(HELD)))
+    {
         for deg in [0.0, 85.0] {
             let a = albedo(f, 0, deg);
             assert!(a <= 1.002, "{} θi {deg}: {a}", f.label());
@@ -64,7 +67,10 @@ fn satin_recommendation_is_the_best_physical_fit() {
     let mut free = FitOptions::new(ModelKind::GgxSmith2);
     free.conserve = false;
     let free = &fit(&ds, &free).unwrap()[0];
-    let held = fits.iter().find(|f| f.model == ModelKind::GgxSmith2).unwrap();
+    let held = fits
+        .iter()
+        .find(|f| f.model == ModelKind::GgxSmith2)
+        .unwrap();
     assert!(albedo(free, 0, 85.0) > 1.05, "{}", albedo(free, 0, 85.0));
     assert!(held.cost > free.cost, "{} {}", held.cost, free.cost);
 }

@@ -493,7 +493,10 @@ fn a_colour_compromise_keeps_each_channel_near_its_own_model() {
         assert!(!body[..b].contains("--"), "{}", &body[..b]);
         rest = &body[b + 3..];
     }
-    assert!(xml.contains("compromise") && !xml.contains("(exact)"), "{xml}");
+    assert!(
+        xml.contains("compromise") && !xml.contains("(exact)"),
+        "{xml}"
+    );
     for (c, f) in fits.iter().enumerate() {
         let own = f.model_for(0);
         let shared = colour.channel_model(c);
