@@ -368,7 +368,7 @@ pub fn verdict(
             Some(FoldKind::Extrapolation) => format!(
                 "it changes by {metric} {err:.3} when the outermost θi slice and the last θo \
                  are left out: the scene needs configurations at the edge of the measured \
-                 angles (θi up to {}°), where the measurement has no neighbour beyond to \
+                 angles (θi up to {}°), where the measurement has no outer neighbour to \
                  confirm it; measure closer to grazing incidence and view",
                 spacing
                     .2

@@ -16,7 +16,7 @@
 //! stays far below the step's 1e-6).
 //!
 //! The albedo is held at the θi where it exceeded 1 (the worst of each channel first, then any
-//! other that the constrained fit still violates, at most [`ROUNDS`] rounds), each by the fine
+//! other that the constrained fit still violates, at most three rounds), each by the fine
 //! quadrature of [`directional_albedo`].
 
 use super::lsq::{self, Limits, Normal, Problem, Robust};
@@ -71,13 +71,14 @@ impl<'a> Conserved<'a> {
             let mut best = (f64::NEG_INFINITY, usize::MAX);
             for j in (0..np).filter(|&j| matches!(specs[j].role, Role::Specular | Role::Diffuse)) {
                 match slots[j] {
-                    Slot::Fixed(v) if v == 0.0 => continue,
+                    Slot::Fixed(0.0) => continue,
                     Slot::Fixed(_) => return None,
                     Slot::Free(k) => {
-                        let shared =
-                            inner.layout.iter().enumerate().any(|(d, s)| {
-                                d != c && s[..np].iter().any(|x| *x == Slot::Free(k))
-                            });
+                        let shared = inner
+                            .layout
+                            .iter()
+                            .enumerate()
+                            .any(|(d, s)| d != c && s[..np].contains(&Slot::Free(k)));
                         if shared || inner.transforms[k].scale != Scale::Linear {
                             return None;
                         }

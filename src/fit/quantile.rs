@@ -90,7 +90,7 @@ pub fn t_two_sided(t: f64, nu: f64) -> f64 {
 }
 
 /// The two-sided quantile of Student's t with `nu` (≥ 1) degrees of freedom at `level`
-/// (0.95: t with P(|T| ≤ t) = 0.95), by bisection on [`t_two_sided`] to 1e-12; the normal
+/// (0.95: t with P(|T| ≤ t) = 0.95), by bisection on `t_two_sided` to 1e-12; the normal
 /// quantile where ν is not finite or above 1e7.
 pub fn t_quantile(level: f64, nu: f64) -> f64 {
     let alpha = 1.0 - level;
