@@ -10,7 +10,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 /// The outcome of one fit (one channel, or several fitted jointly): parameters with standard
-/// errors, correlations, 1 % ranges, checks and information criteria. Its JSON is the
+/// errors, correlations, confidence intervals, checks and information criteria. Its JSON is the
 /// command line's fit JSON.
 #[pyclass(frozen, module = "brdfit._brdfit", name = "FitResult")]
 pub struct PyFitResult {
@@ -96,8 +96,21 @@ impl PyFitResult {
         PyArray2::from_vec2(py, &self.r.correlation).map_err(error)
     }
 
-    /// Parameter name → (low, high): the values within 1 % of the minimum cost (high is
-    /// inf where the range is open).
+    /// Parameter name → (low, high): the confidence interval at `interval_level` by profile
+    /// likelihood (±inf where it is open on that side).
+    #[getter]
+    fn intervals<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        self.ranges(py)
+    }
+
+    /// The confidence level of `intervals` (0.95; 0 for a fit file of an earlier version,
+    /// whose `ranges` held the values within 1 % of the minimum cost).
+    #[getter]
+    fn interval_level(&self) -> f64 {
+        self.r.interval_level
+    }
+
+    /// The same as `intervals` (the name of earlier versions).
     #[getter]
     fn ranges<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         dict(

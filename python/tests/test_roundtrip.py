@@ -40,8 +40,8 @@ def test_result_fields(fits):
     np.testing.assert_allclose(np.diag(c), 1.0)
     np.testing.assert_allclose(c, c.T)
     assert ts.verified is True and ts.usable
-    lo, hi = ts.ranges["n"]
-    assert lo < ts.params["n"] < hi
+    lo, hi = ts.intervals["n"]
+    assert lo < ts.params["n"] < hi and ts.interval_level == 0.95 and ts.ranges == ts.intervals
 
 
 def test_dataset_arrays(root):
