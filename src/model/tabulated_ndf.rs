@@ -17,7 +17,7 @@
 //!
 //! Because D̃ is linear in the table values, so are Z and the projected area
 //! A(θv) = ∫ max(0, v·h) D̃(h) dω_h: both are dot products of the table with weights
-//! precomputed once ([`weights`]), and the specular term is F Z D̃(θh) / (4 A(θl) A(θe)), whose
+//! precomputed once, and the specular term is F Z D̃(θh) / (4 A(θl) A(θe)), whose
 //! gradient in each table value is analytic.
 
 use super::{
@@ -362,7 +362,7 @@ mod tests {
             (0.3, 0.5, 2.9),
             (1.1, 0.2, 3.1),
             (0.7, 1.3, 1.0),
-            (0.05, 0.08, 3.14),
+            (0.05, 0.08, 3.1),
         ] {
             let g = Geometry::from_angles(ti, 0.0, to, dphi);
             let mut grad = vec![0.0; crate::model::MAX_PARAMS];
