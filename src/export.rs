@@ -1,6 +1,6 @@
 //! Exports of a fitted model to other renderers and formats: a Mitsuba 3 BSDF snippet, a
-//! pbrt-v4 material line, a Disney BRDF Explorer analytic `.brdf`, a MERL `.binary` table and a
-//! brdfit CSV sampled on a grid.
+//! pbrt-v4 material line, a Disney BRDF Explorer analytic `.brdf`, a MERL `.binary` table, an RGL
+//! `.bsdf` table and a brdfit CSV sampled on a grid.
 
 use crate::data::{Dataset, Quantity, merl};
 use crate::fit::Colour;
@@ -20,6 +20,8 @@ pub enum ExportFormat {
     Merl,
     /// brdfit CSV on a grid.
     Csv,
+    /// RGL `.bsdf` (RGB) for Mitsuba 3's `measured` plugin.
+    RglBsdf,
 }
 
 impl ExportFormat {
@@ -350,6 +352,21 @@ pub fn merl_dataset(c: &Colour) -> Dataset {
         .push(format!("brdfit export of {}", c.model));
     ds.meta.comments.extend(c.notes.iter().cloned());
     ds
+}
+
+/// The material as an RGL `.bsdf` in RGB form ([`crate::data::rgl::write_rgb`]): each colour
+/// channel's model tabulated at 46 incidence angles on a 64 × 64 grid of microfacet normals,
+/// for Mitsuba 3's `measured` plugin (RGB variants).
+pub fn rgl_bsdf(c: &Colour) -> Vec<u8> {
+    let ms = [0, 1, 2].map(|k| c.channel_model(k));
+    let text = format!("brdfit export of {}", c.model);
+    crate::data::rgl::write_rgb(
+        &|wi, wo| {
+            let g = Geometry::from_vectors([0.0, 0.0, 1.0], wi, wo);
+            ms.map(|m| m.brdf(&g))
+        },
+        &text,
+    )
 }
 
 /// The material on a grid: θi, θo = 0…85° in 5° steps, φi = 0, φo = 0…345° in 15° steps; one

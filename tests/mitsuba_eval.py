@@ -2,9 +2,12 @@
 
 usage: python mitsuba_eval.py EXPORT.xml DIRS.csv OUT.csv
 
+An EXPORT ending in .bsdf is an RGL file, loaded with Mitsuba's `measured` plugin.
+
 DIRS.csv holds theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg per row (brdfit's convention,
 normal +z). OUT.csv gets r,g,b: Mitsuba's f_r = bsdf.eval(wi = light, wo = eye) / cos(theta_o),
-both directions in the local frame of a surface with normal +z. Used by tests/it/export.rs.
+both directions in the local frame of a surface with normal +z. Used by tests/it/export.rs and
+tests/it/rgl.rs.
 """
 import csv
 import math
@@ -22,10 +25,13 @@ def direction(theta_deg, phi_deg):
 
 def main():
     xml_path, dirs_path, out_path = sys.argv[1:4]
-    text = open(xml_path).read()
-    start = text.index("<bsdf")
-    text = text[:start] + '<bsdf version="3.0.0"' + text[start + len("<bsdf"):]
-    bsdf = mi.load_string(text)
+    if xml_path.endswith(".bsdf"):
+        bsdf = mi.load_dict({"type": "measured", "filename": xml_path})
+    else:
+        text = open(xml_path).read()
+        start = text.index("<bsdf")
+        text = text[:start] + '<bsdf version="3.0.0"' + text[start + len("<bsdf"):]
+        bsdf = mi.load_string(text)
     ctx = mi.BSDFContext()
     rows = []
     with open(dirs_path) as f:

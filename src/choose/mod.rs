@@ -119,8 +119,10 @@ pub const FLIP_LEVEL: f64 = 0.05;
 /// ms; phong 15.4, blinn-phong 16.8; torrance-sparrow d3 14.7, ggx-smith 16.5, d1 18.2, d2
 /// 18.4; the measured table 20.2): the tie-break of the choice. A fixed order keeps the choice the same
 /// on every run, while measured times vary. Torrance–Sparrow with ABC (five parameters) and
-/// ggx-smith-2 (six) come last: no other model has as many parameters, so they tie with none.
-pub const RENDER_COST_ORDER: [(ModelKind, Distribution); 9] = [
+/// ggx-smith-2 (six) come last: no other model has as many parameters, so they tie with none;
+/// after them the tabulated-NDF model (35 parameters, and per shading point two 33-term dot
+/// products where GGX has a closed form).
+pub const RENDER_COST_ORDER: [(ModelKind, Distribution); 10] = [
     (ModelKind::Lambert, Distribution::D3),
     (ModelKind::Phong, Distribution::D3),
     (ModelKind::BlinnPhong, Distribution::D3),
@@ -130,6 +132,7 @@ pub const RENDER_COST_ORDER: [(ModelKind, Distribution); 9] = [
     (ModelKind::TorranceSparrow, Distribution::D2),
     (ModelKind::TorranceSparrow, Distribution::Abc),
     (ModelKind::GgxSmith2, Distribution::D3),
+    (ModelKind::TabulatedNdf, Distribution::D3),
 ];
 
 /// Fill shares above this make the resampled measurement mostly a model: the reference is

@@ -269,7 +269,7 @@ pub(crate) fn run_export(args: ExportArgs) -> Result<()> {
             export::brdf_explorer(&c)
                 .map_err(|e| fail(e.replace("--channel NAME", &channel_example(&picked))))?,
         ),
-        ExportFormat::Merl | ExportFormat::Csv => None,
+        ExportFormat::Merl | ExportFormat::Csv | ExportFormat::RglBsdf => None,
     };
     // The refit's error is a note, or a warning (even with --quiet) where it is not faithful.
     if let Some(t) = &text
@@ -291,6 +291,9 @@ pub(crate) fn run_export(args: ExportArgs) -> Result<()> {
         (None, None) => bail!("--to {to} writes a file\n  fix: add -o OUT"),
         (None, Some(o)) => {
             refuse_input(&o, &[&fit])?;
+            if fmt == ExportFormat::RglBsdf {
+                return write_file(&o, &export::rgl_bsdf(&c));
+            }
             if fmt == ExportFormat::Merl {
                 data::merl::write_merl(&export::merl_dataset(&c), &o)?;
             } else {

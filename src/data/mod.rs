@@ -14,6 +14,7 @@ mod csvfmt;
 #[doc(hidden)]
 pub mod merl;
 pub mod nbrdf;
+pub mod rgl;
 
 use std::collections::BTreeMap;
 use std::f64::consts::{FRAC_PI_2, PI};

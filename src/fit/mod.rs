@@ -41,6 +41,7 @@ mod quantile;
 mod read;
 mod result;
 mod run;
+mod seed;
 // Public for the binary and the integration tests (separate crates), not library API.
 #[doc(hidden)]
 pub mod lsq;

@@ -229,6 +229,7 @@ type FitsOrError = Result<Vec<FitResult>, FitError>;
 /// d3 and ggx-smith there).
 pub(crate) fn work_weight(o: &FitOptions) -> u64 {
     match (o.kind, o.dist) {
+        (ModelKind::TabulatedNdf, _) => 60,
         (ModelKind::GgxSmith2, _) => 40,
         (ModelKind::TorranceSparrow, Distribution::Abc) => 12,
         (ModelKind::TorranceSparrow, Distribution::D1) => 8,

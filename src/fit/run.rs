@@ -56,7 +56,11 @@ pub(super) fn fit_with(
             .map(|c| {
                 step(Some(c), true);
                 let (rows, t) = timed(c);
-                let f = fit_group(vec![rows], opts, t);
+                let f = if super::seed::seeded(opts) {
+                    super::seed::fit_seeded(vec![rows], opts, t)
+                } else {
+                    fit_group(vec![rows], opts, t)
+                };
                 step(Some(c), false);
                 f
             })
@@ -65,7 +69,11 @@ pub(super) fn fit_with(
         step(None, true);
         let (chans, times): (Vec<ChannelRows>, Vec<f64>) =
             (0..ds.channels.len()).map(timed).unzip();
-        let f = fit_group(chans, opts, times.iter().sum());
+        let f = if super::seed::seeded(opts) {
+            super::seed::fit_seeded(chans, opts, times.iter().sum())
+        } else {
+            fit_group(chans, opts, times.iter().sum())
+        };
         step(None, false);
         Ok(vec![f?])
     }

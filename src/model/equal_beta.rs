@@ -23,19 +23,12 @@ pub fn equal_beta_phong(ts: &Model) -> Model {
         Distribution::Abc => abc_half_width(ts.p[1], ts.p[2]),
     };
     let c1 = Distribution::D1.param_from_beta(beta);
+    let mut p = [0.0; super::MAX_PARAMS];
+    p[..3].copy_from_slice(&[c1, ps * f0_from_n(ts.p[0]), ts.pd()]);
     Model {
         kind: ModelKind::BlinnPhong,
         dist: Distribution::D3,
-        p: [
-            c1,
-            ps * f0_from_n(ts.p[0]),
-            ts.pd(),
-            0.0,
-            0.0,
-            0.0,
-            0.0,
-            0.0,
-        ],
+        p,
         fast_pow: None,
     }
 }

@@ -2,7 +2,7 @@
 //! declarations, and the catalogue the comparisons run.
 
 use super::{Distribution, ParamSpec, Role};
-use super::{ggx_smith, ggx_smith_2, lambert, phong, torrance_sparrow};
+use super::{ggx_smith, ggx_smith_2, lambert, phong, tabulated_ndf, torrance_sparrow};
 use std::fmt;
 
 /// Which reflection model. Each family lives in a file of its own in `src/model/` and declares
@@ -32,6 +32,9 @@ pub enum ModelKind {
     #[value(name = "ggx-smith-2")]
     #[serde(rename = "ggx-smith-2")]
     GgxSmith2,
+    /// A microfacet model with a tabulated normal distribution over θh and the Smith masking
+    /// derived from it (Dupuy et al. 2015): f_r = pd/π + ps F D G1 G1 / (4 N·L N·E).
+    TabulatedNdf,
 }
 
 impl ModelKind {
@@ -54,6 +57,7 @@ impl ModelKind {
             ModelKind::TorranceSparrow => "torrance-sparrow",
             ModelKind::GgxSmith => "ggx-smith",
             ModelKind::GgxSmith2 => "ggx-smith-2",
+            ModelKind::TabulatedNdf => "tabulated-ndf",
         }
     }
 
@@ -107,6 +111,7 @@ impl ModelKind {
             ModelKind::TorranceSparrow => torrance_sparrow::params(dist),
             ModelKind::GgxSmith => ggx_smith::params(dist),
             ModelKind::GgxSmith2 => ggx_smith_2::params(dist),
+            ModelKind::TabulatedNdf => tabulated_ndf::params(dist),
         }
     }
 

@@ -23,6 +23,7 @@ mod ggx_smith;
 mod ggx_smith_2;
 mod lambert;
 mod phong;
+pub mod tabulated_ndf;
 mod torrance_sparrow;
 
 pub use distribution::{Distribution, abc_half_width, d3_textured};
@@ -108,7 +109,7 @@ pub enum ModelError {
 }
 
 /// The most parameters a model may declare (the size of [`Model::p`]).
-pub const MAX_PARAMS: usize = 8;
+pub const MAX_PARAMS: usize = tabulated_ndf::TABLE + 3;
 
 /// A reflection model with its parameter values: a small value type evaluated per sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -299,6 +300,7 @@ impl Model {
             ModelKind::TorranceSparrow => torrance_sparrow::brdf_grad(self, g, grad),
             ModelKind::GgxSmith => ggx_smith::brdf_grad(self, g, grad),
             ModelKind::GgxSmith2 => ggx_smith_2::brdf_grad(self, g, grad),
+            ModelKind::TabulatedNdf => tabulated_ndf::brdf_grad(self, g, grad),
         }
     }
 
@@ -310,6 +312,7 @@ impl Model {
             ModelKind::TorranceSparrow => torrance_sparrow::material(self),
             ModelKind::GgxSmith => ggx_smith::material(self),
             ModelKind::GgxSmith2 => ggx_smith_2::material(self),
+            ModelKind::TabulatedNdf => tabulated_ndf::material(self),
         }
     }
 
@@ -323,6 +326,7 @@ impl Model {
             ModelKind::TorranceSparrow => torrance_sparrow::glsl(self),
             ModelKind::GgxSmith => ggx_smith::glsl(self),
             ModelKind::GgxSmith2 => ggx_smith_2::glsl(self),
+            ModelKind::TabulatedNdf => tabulated_ndf::glsl(self),
         }
     }
 }

@@ -269,8 +269,8 @@ fn lambertian_data_needs_lambert_everywhere() {
 
 /// MERL alumina-oxide (bundled, green channel), stated in the README: front lit no model of
 /// the catalogue is within the threshold (the measured rim darkens at grazing view, which no
-/// model does), the closest being a Torrance–Sparrow lobe (D3 or ABC) or its GGX twins; edge
-/// lit none either; neither case is `chosen` (the reference's own error is stated).
+/// model does), the closest being a Torrance–Sparrow lobe (D3 or ABC), its GGX twins or the
+/// tabulated-NDF model (front lit it is the closest); edge lit none either; neither case is `chosen` (the reference's own error is stated).
 #[test]
 fn merl_alumina_oxide_choices() {
     let r = choose_file("data/merl-alumina-oxide.csv");
@@ -281,7 +281,8 @@ fn merl_alumina_oxide_choices() {
             "torrance-sparrow-d3",
             "torrance-sparrow-abc",
             "ggx-smith",
-            "ggx-smith-2"
+            "ggx-smith-2",
+            "tabulated-ndf"
         ]
         .contains(&closest.as_str()),
         "{closest}"
@@ -298,7 +299,8 @@ fn merl_alumina_oxide_choices() {
             "torrance-sparrow-d3",
             "torrance-sparrow-abc",
             "ggx-smith",
-            "ggx-smith-2"
+            "ggx-smith-2",
+            "tabulated-ndf"
         ]
         .contains(&closest.as_str()),
         "{closest}"

@@ -100,7 +100,7 @@ fn text_exports_carry_the_mapping() {
 /// A Python that imports Mitsuba 3: `BRDFIT_PYTHON`, else `python3`. None (with a visible
 /// message) when there is none, unless `BRDFIT_REQUIRE_MITSUBA=1` (set by `.ci/run`) makes its
 /// absence a failure.
-fn mitsuba_python() -> Option<String> {
+pub(crate) fn mitsuba_python() -> Option<String> {
     let py = std::env::var("BRDFIT_PYTHON").unwrap_or_else(|_| "python3".into());
     let ok = std::process::Command::new(&py)
         .args(["-c", "import mitsuba; mitsuba.set_variant('scalar_rgb')"])
@@ -118,7 +118,7 @@ fn mitsuba_python() -> Option<String> {
     None
 }
 
-fn brdfit(args: &[&str]) -> std::process::Output {
+pub(crate) fn brdfit(args: &[&str]) -> std::process::Output {
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_brdfit"))
         .args(args)
         .current_dir(env!("CARGO_MANIFEST_DIR"))
@@ -134,7 +134,7 @@ fn brdfit(args: &[&str]) -> std::process::Output {
 
 /// The last column of each data row of a CSV (skipping `#` comments and the header), or all
 /// columns with `all`.
-fn csv_rows(p: &std::path::Path) -> Vec<Vec<f64>> {
+pub(crate) fn csv_rows(p: &std::path::Path) -> Vec<Vec<f64>> {
     std::fs::read_to_string(p)
         .unwrap()
         .lines()

@@ -225,7 +225,7 @@ fn fine_goniometer() -> Vec<[f64; 4]> {
 /// the MERL 90 × 90 × 180 cells (Matusik et al. 2003; θh on MERL's square-root scale, so its
 /// first cells sit 0.003°, 0.025°, 0.07° from the mirror) taking every θh, every third θd and
 /// every sixth φd, light and eye above the horizon.
-fn dense() -> Vec<[f64; 4]> {
+pub(crate) fn dense() -> Vec<[f64; 4]> {
     use brdfit::data::merl::{CELLS, PHI_D, THETA_D, cell_center};
     (0..CELLS)
         .filter(|c| (c / PHI_D) % THETA_D % 3 == 1 && c % PHI_D % 6 == 2)
