@@ -125,7 +125,7 @@ pub fn export(
         ExportFormat::Mitsuba => export::mitsuba(&c, id).map_err(error),
         ExportFormat::Pbrt => Ok(export::pbrt(&c)),
         ExportFormat::BrdfExplorer => export::brdf_explorer(&c).map_err(error),
-        ExportFormat::Merl | ExportFormat::Csv => Err(error(format!(
+        ExportFormat::Merl | ExportFormat::Csv | ExportFormat::RglBsdf => Err(error(format!(
             "to=\"{to}\" writes a binary or tabular file\n  fix: use the command line: brdfit export FIT.json --to {to} -o OUT"
         ))),
     }
