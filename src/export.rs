@@ -157,24 +157,27 @@ pub fn refit_as_ggx(c: &Colour) -> Result<(Colour, Option<String>), String> {
 pub fn mitsuba(c: &Colour, id: &str) -> Result<String, String> {
     let (c, refit) = refit_as_ggx(c)?;
     let m = c.model;
-    let mut s = format!(
-        "<!-- brdfit export of {}\n     The target evaluates the same f_r (exact{}).\n",
+    let compromise = c.notes.iter().any(|n| n.starts_with("compromise"));
+    let mut head = format!(
+        "brdfit export of {}\n     {}\n",
         if c.is_grey() {
             format!("{m}")
         } else {
             m.kind.label(m.dist)
         },
-        if refit.is_some() {
-            " for the refitted model"
-        } else {
-            ""
+        match (refit.is_some(), compromise) {
+            (false, false) => "The target evaluates the same f_r (exact).",
+            (true, _) =>
+                "The target evaluates the refitted ggx-smith below exactly, the fitted model only approximately (the refit's error follows).",
+            (false, true) =>
+                "The target evaluates the f_r below exactly; the channels share one lobe, a compromise (the note follows).",
         }
     );
     if let Some(r) = &refit {
-        s += &format!("     {r}\n");
+        head += &format!("     {r}\n");
     }
-    s += &colour_notes(&c, "     ");
-    s += "-->\n";
+    head += &colour_notes(&c, "     ");
+    let mut s = format!("<!-- {} -->\n", comment_safe(&head));
     s += &match m.material().kind {
         MaterialKind::DiffusePlusConductor { alpha, eta, .. } => format!(
             "<!-- f_r = pd/pi + ps F D G1 G1/(4 cos cos) as the mean of two BSDFs, each weighted 1/2: diffuse(2 pd) and roughconductor(ggx, alpha, eta = n, k = 0, specular_reflectance = 2 ps); a conductor with k = 0 has the unpolarised dielectric Fresnel reflectance -->\n<bsdf type=\"blendbsdf\" id=\"{id}\">\n    <float name=\"weight\" value=\"0.5\"/>\n    <bsdf type=\"diffuse\">\n{}    </bsdf>\n    <bsdf type=\"roughconductor\">\n        <string name=\"distribution\" value=\"ggx\"/>\n        <float name=\"alpha\" value=\"{}\"/>\n        <boolean name=\"sample_visible\" value=\"true\"/>\n        <spectrum name=\"eta\" value=\"{}\"/>\n        <spectrum name=\"k\" value=\"0\"/>\n{}    </bsdf>\n</bsdf>\n",
@@ -215,6 +218,22 @@ pub fn mitsuba(c: &Colour, id: &str) -> Result<String, String> {
         ),
     };
     Ok(s)
+}
+
+/// `text` fit for an XML comment, which may not hold `--` (XML 1.0, §2.5; Python's parsers
+/// refuse it): each `--` becomes `- -`, and a trailing `-` is followed by a space.
+pub fn comment_safe(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for ch in text.chars() {
+        if ch == '-' && out.ends_with('-') {
+            out.push(' ');
+        }
+        out.push(ch);
+    }
+    if out.ends_with('-') {
+        out.push(' ');
+    }
+    out
 }
 
 /// The material line's comment: the model, and whether the target's model is the same.

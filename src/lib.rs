@@ -10,22 +10,26 @@
 //! `data::merl`) are public only because the binary and the integration tests are separate
 //! crates, and are not library API.
 //!
-//! Fitting Blinn's Torrance–Sparrow model to samples from Rust:
+//! Fitting Blinn's Torrance–Sparrow model to a measurement file from Rust (any format
+//! [`load`] reads; here the bundled samples of Blinn's magnesium oxide):
 //!
 //! ```
-//! use brdfit::{FitOptions, Model, ModelKind, fit, simulate};
-//! use brdfit::simulate::Grid;
+//! use brdfit::{ChannelSelect, FitOptions, LoadOptions, ModelKind, fit, load};
 //!
-//! // Blinn's magnesium oxide, sampled on 2,000 hemisphere directions with 1 % noise.
-//! let truth = Model::blinn_mgo();
-//! let samples = simulate(&truth, &Grid::Hemisphere(2000).directions(1), 0.01, 1);
+//! let samples = load("data/blinn-mgo.csv".as_ref(), &LoadOptions::default())?;
+//! // One channel of a colour file: samples.select(&ChannelSelect::Name("g".into()))?
+//! let samples = samples.select(&ChannelSelect::Index(0))?;
 //! let mut options = FitOptions::new(ModelKind::TorranceSparrow);
 //! options.verify = 4; // four random starts must not find a lower cost
 //! let result = fit(&samples, &options)?.remove(0);
 //! assert!(result.usable());
 //! assert!((result.get("c3").unwrap() - 0.35).abs() < 0.01);
-//! println!("{}", serde_json::to_string_pretty(&result).unwrap());
-//! # Ok::<(), brdfit::fit::FitError>(())
+//! // Each parameter's 95 % confidence interval (profile likelihood):
+//! for (name, lo, hi) in &result.ranges {
+//!     println!("{name} in [{lo}, {hi}]");
+//! }
+//! println!("{}", serde_json::to_string_pretty(&result)?);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
 #![warn(missing_docs)]
@@ -104,7 +108,7 @@ mod tests {
     }
 }
 
-pub use data::{Dataset, LoadOptions, load};
+pub use data::{ChannelSelect, Dataset, LoadOptions, load};
 pub use fit::{FitError, FitOptions, FitResult, fit};
 pub use model::{Distribution, Geometry, Model, ModelKind};
 pub use render::Scene;

@@ -144,6 +144,9 @@ pub fn refit_on_pixels(
         o.limits.stall = PIXEL_STALL;
         o.local_only = true;
         o.profile = false;
+        // The samples are scaled by the exposure: an albedo bound of 1 would hold the wrong
+        // material; the physical checks are made in the data's units below instead.
+        o.conserve = false;
         o.verify = verify;
         o.watch = watch.cloned();
         o.start = start;

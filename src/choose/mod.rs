@@ -175,6 +175,11 @@ pub fn check_test_object(scene: &Scene) -> Result<(), String> {
             "the test object (material {}) has no lit pixel: the camera sees no object of that material, so every model would score the same\n  fix: aim the camera at it, or name the test object with test_object = \"NAME\"",
             test.name
         )
+    } else if in_shadow(scene) {
+        format!(
+            "the test object (material {}) has no lit pixel: the camera sees {seen} pixels of it, and a light shines on that side, but other objects cast their shadow over all of it, so every model would score the same\n  fix: move the light, or the object between it and the test object, so the light reaches the side the camera sees",
+            test.name
+        )
     } else {
         format!(
             "the test object (material {}) has no lit pixel: the camera sees {seen} pixels of it, but no light reaches them from above the surface, so every model would score the same\n  fix: move a light so it shines on the side the camera sees (a light inside a closed object reaches nothing)",
@@ -195,6 +200,14 @@ pub fn scene_case(path: &std::path::Path, scene: Scene, allow_large: bool) -> Re
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "scene".into());
     Ok(Case { name, scene })
+}
+
+/// True when the test object, alone in `scene` (the other objects removed), has lit pixels:
+/// what keeps the light from it is the others' shadow.
+fn in_shadow(scene: &Scene) -> bool {
+    let mut alone = scene.clone();
+    alone.objects.retain(|o| o.material == 0);
+    !alone.lit_configurations(0).0.is_empty()
 }
 
 /// The two lighting cases of Blinn's Figure 7 at `res`², lit by the light alone (no ambient

@@ -20,7 +20,8 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// Which rows pass, and the choice: the simplest passing row (fewest parameters, then
-/// [`RENDER_COST_ORDER`]); and the closest row (lowest error on the threshold's metric).
+/// [`RENDER_COST_ORDER`]); and the closest row (lowest error on the threshold's metric) among
+/// the usable rows, or among all where none is usable.
 pub fn pick(rows: &[ModelRow], threshold: Threshold) -> (Option<usize>, usize) {
     let rank = |r: &ModelRow| {
         let pos = RENDER_COST_ORDER
@@ -32,7 +33,10 @@ pub fn pick(rows: &[ModelRow], threshold: Threshold) -> (Option<usize>, usize) {
     let chosen = (0..rows.len())
         .filter(|&i| rows[i].usable && rows[i].error(threshold.metric) <= threshold.value)
         .min_by_key(|&i| rank(&rows[i]));
+    // The closest usable row; the closest of all only where none is usable.
+    let any_usable = rows.iter().any(|r| r.usable);
     let closest = (0..rows.len())
+        .filter(|&i| rows[i].usable || !any_usable)
         .min_by(|&a, &b| {
             rows[a]
                 .error(threshold.metric)
@@ -427,4 +431,38 @@ fn refuse_unsupported(c: &mut CaseResult, samples: usize) {
     c.verdict = Verdict::Undetermined;
     c.chosen = None;
     c.reason = format!("the reference is not determined: {why}");
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A row of `model` with ꟻLIP p99 `p99`, usable or not (the other figures 0).
+    fn row(model: &str, p99: f64, usable: bool) -> ModelRow {
+        serde_json::from_value(serde_json::json!({
+            "model": model, "distribution": "d3", "params": {"pd": 0.5},
+            "global_params": {"pd": 0.5}, "bic": 0.0, "flip_mean": 0.0, "flip_p99": p99,
+            "flip_above": 0.0, "delta_e_itp_mean": 0.0, "delta_e_itp_p99": 0.0, "rmse": 0.0,
+            "global_flip_p99": p99, "fit_seconds": 0.0, "render_seconds": 0.0, "rays": 0,
+            "usable": usable
+        }))
+        .unwrap()
+    }
+
+    /// None within the threshold: the closest named is the usable row nearest the reference,
+    /// not a nearer one that is not usable (satin: torrance-sparrow-d3 with ps 1.5e7); with
+    /// no usable row, the nearest of all.
+    #[test]
+    fn the_closest_is_usable_where_any_is() {
+        let rows = [
+            row("lambert", 0.9, true),
+            row("torrance-sparrow-d3", 0.2, false),
+            row("phong", 0.4, true),
+        ];
+        let (chosen, closest) = pick(&rows, DEFAULT_THRESHOLD);
+        assert_eq!(chosen, None);
+        assert_eq!(rows[closest].model, "phong");
+        let rows = [row("lambert", 0.9, false), row("phong", 0.4, false)];
+        assert_eq!(rows[pick(&rows, DEFAULT_THRESHOLD).1].model, "phong");
+    }
 }

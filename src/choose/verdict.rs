@@ -383,9 +383,9 @@ pub fn verdict(
             ),
             Some(FoldKind::Extrapolation) => format!(
                 "it changes by {metric} {err:.3} when the outermost θi slice and the last θo \
-                 are left out: the scene needs configurations beyond the measured angles \
-                 (up to θi {}°), which are extrapolated; measure closer to grazing incidence and \
-                 view",
+                 are left out: the scene needs configurations at the edge of the measured \
+                 angles (θi up to {}°), where the measurement has no outer neighbour to \
+                 confirm it; measure closer to grazing incidence and view",
                 spacing
                     .2
                     .map(|s| format!("{s}"))
@@ -529,5 +529,25 @@ mod tests {
         let (u, why) = v(Some("phong"), 0.2);
         assert_eq!(u, Verdict::Undetermined);
         assert!(why.contains("15° azimuth spacing"), "{why}");
+    }
+
+    /// Every lit pixel inside the measured cells (none beyond), the extrapolation fold the
+    /// worst: the reason speaks of the edge of the measured angles, never of configurations
+    /// beyond them (which the table's 100 % measured share would contradict).
+    #[test]
+    fn an_edge_fold_is_not_called_beyond_the_data() {
+        let (u, why) = verdict(
+            None,
+            ("phong", 0.03),
+            "flip_p99",
+            0.05,
+            0.2,
+            Some(FoldKind::Extrapolation),
+            (Some(10.0), Some(15.0), Some(80.0)),
+            0.0,
+        );
+        assert_eq!(u, Verdict::Undetermined);
+        assert!(!why.contains("beyond"), "{why}");
+        assert!(why.contains("edge of the measured angles"), "{why}");
     }
 }

@@ -162,10 +162,19 @@ pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
                 "samples_used",
                 "warnings",
                 "unusable",
+                "recommended",
+                "interval_level",
             ]);
+            // Each parameter's confidence interval, two columns a parameter.
+            let ends: Vec<String> = pnames
+                .iter()
+                .flat_map(|n| [format!("{n}_lo"), format!("{n}_hi")])
+                .collect();
+            head.extend(ends.iter().map(String::as_str));
             w.write_record(&head)?;
             for (f, fits) in &all {
-                for r in fits {
+                let recommended = summary_recommended(fits);
+                for (i, r) in fits.iter().enumerate() {
                     let mut row = vec![f.display().to_string(), r.channel.clone(), r.label()];
                     row.extend(
                         pnames
@@ -179,7 +188,16 @@ pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
                         r.samples_used.to_string(),
                         r.warnings.len().to_string(),
                         r.unusable.join("; "),
+                        recommended[i].to_string(),
+                        r.interval_level.to_string(),
                     ]);
+                    for n in &pnames {
+                        let iv = r.ranges.iter().find(|x| x.0 == *n);
+                        row.extend([
+                            iv.map_or(String::new(), |x| x.1.to_string()),
+                            iv.map_or(String::new(), |x| x.2.to_string()),
+                        ]);
+                    }
                     w.write_record(&row)?;
                 }
             }
@@ -252,6 +270,24 @@ fn duplicates_warning(file: &Path, ds: &brdfit::data::Dataset) {
             ds.len() as f64 / (ds.len() - dup).max(1) as f64
         );
     }
+}
+
+/// For each of one file's fits, whether it is the recommendation of its channel (the BIC
+/// ranking of `fit --model all`, [`brdfit::fit::rank`]).
+fn summary_recommended(fits: &[brdfit::FitResult]) -> Vec<bool> {
+    let mut out = vec![false; fits.len()];
+    let mut channels: Vec<&str> = fits.iter().map(|f| f.channel.as_str()).collect();
+    channels.dedup();
+    channels.sort();
+    channels.dedup();
+    for c in channels {
+        let idx: Vec<usize> = (0..fits.len()).filter(|&i| fits[i].channel == c).collect();
+        let subset: Vec<brdfit::FitResult> = idx.iter().map(|&i| fits[i].clone()).collect();
+        if let (_, Some(k)) = brdfit::fit::rank(&subset) {
+            out[idx[k]] = true;
+        }
+    }
+    out
 }
 
 /// Samples from which a single file's fits show a progress bar on a terminal.

@@ -339,5 +339,19 @@ pub(crate) fn run_convert(args: ConvertArgs) -> Result<()> {
         data::write_csv(&ds, &output)?;
     }
     wrote(&output);
+    if to_merl && let Ok(cells) = data::merl::tabulate(&ds) {
+        // A goniometer's samples fill a sliver of MERL's cells: say so.
+        let filled = cells.iter().filter(|c| c.iter().any(|&v| v >= 0.0)).count();
+        if filled * 2 < cells.len() {
+            eprintln!(
+                "warning: the samples fill {filled} of the table's {} cells ({} %); the others \
+                 hold -1, which MERL readers take as missing (a renderer reads them as black)\n  \
+                 fix: to render the material, fit a model and export it (fit --json, then \
+                 export --to merl), which fills every cell",
+                cells.len(),
+                brdfit::model::significant(100.0 * filled as f64 / cells.len() as f64, 2)
+            );
+        }
+    }
     Ok(())
 }

@@ -67,12 +67,15 @@ pub(super) fn certify(
         unusable,
     }
 }
+/// The start of the reason a fit fails its first-order conditions.
+pub(super) const FIRST_ORDER: &str = "first-order conditions fail";
+
 /// The first-order (KKT) conditions of the box-constrained problem at the solution, in solver
 /// variables: an interior variable has a scaled gradient |g_k| / (√(JᵀJ)_kk ‖r‖) near 0; one at
 /// a bound has its gradient pointing out of the box (only an inward part counts). Returns the
 /// largest violation and, when it exceeds [`KKT_TOLERANCE`], why.
-pub(super) fn first_order(
-    p: &BrdfProblem,
+pub(super) fn first_order<P: Problem>(
+    p: &P,
     sol: &Solution,
     robust: Robust,
     names: &[String],
@@ -113,19 +116,22 @@ pub(super) fn first_order(
             worst = (v, Some((k, side)));
         }
     }
-    let why = worst.1.filter(|_| worst.0 > KKT_TOLERANCE).map(|(k, side)| {
-        let at = match side {
-            -1 => " at its lower bound, pointing into the range",
-            1 => " at its upper bound, pointing into the range",
-            _ => "",
-        };
-        format!(
-            "first-order conditions fail: the cost gradient in {}{at} is {} (scaled; tolerance {})",
-            names[k],
-            readable(worst.0),
-            readable(KKT_TOLERANCE)
-        )
-    });
+    let why = worst
+        .1
+        .filter(|_| worst.0 > KKT_TOLERANCE)
+        .map(|(k, side)| {
+            let at = match side {
+                -1 => " at its lower bound, pointing into the range",
+                1 => " at its upper bound, pointing into the range",
+                _ => "",
+            };
+            format!(
+                "{FIRST_ORDER}: the cost gradient in {}{at} is {} (scaled; tolerance {})",
+                names[k],
+                readable(worst.0),
+                readable(KKT_TOLERANCE)
+            )
+        });
     (worst.0, why)
 }
 

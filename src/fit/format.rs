@@ -2,7 +2,6 @@
 
 use super::options::Weighting;
 use super::result::FitResult;
-use super::stats::describe_range;
 use crate::model::{Distribution, ModelKind, readable};
 
 /// The models compared by `--model all`: (kind, distribution), simplest first.
@@ -54,7 +53,16 @@ pub fn format_fit(f: &FitResult) -> String {
         f.method.name(),
         f.samples_used
     );
-    let _ = writeln!(s, "  {:<8} {:>14} {:>14}", "param", "value", "std. error");
+    let level = if f.interval_level > 0.0 {
+        format!("{} % interval", readable(100.0 * f.interval_level))
+    } else {
+        "within 1 % of the minimum cost".into()
+    };
+    let _ = writeln!(
+        s,
+        "  {:<8} {:>14}  {:<26} {:>14}",
+        "param", "value", level, "std. error"
+    );
     for (((n, v), se), free) in f.params.iter().zip(&f.stderr).zip(&f.free) {
         let value = readable(*v);
         if *free {
@@ -63,7 +71,12 @@ pub fn format_fit(f: &FitResult) -> String {
             } else {
                 "not determined".into()
             };
-            let _ = writeln!(s, "  {n:<8} {value:>14} {se:>14}");
+            let iv = f
+                .ranges
+                .iter()
+                .find(|r| r.0 == *n)
+                .map_or(String::new(), |r| interval_text(r.1, r.2));
+            let _ = writeln!(s, "  {n:<8} {value:>14}  {iv:<26} {se:>14}");
         } else {
             let _ = writeln!(s, "  {n:<8} {value:>14} {:>14}", "(fixed)");
         }
@@ -80,9 +93,6 @@ pub fn format_fit(f: &FitResult) -> String {
         f.cost, f.rmse, f.iterations, f.evaluations, f.seconds
     );
     let _ = writeln!(s, "  termination: {}", f.termination);
-    for (n, lo, hi) in &f.ranges {
-        let _ = writeln!(s, "  range: {}", describe_range(n, (*lo, *hi)));
-    }
     for w in &f.warnings {
         let _ = writeln!(s, "  warning: {w}");
     }
@@ -111,6 +121,20 @@ pub fn format_fit(f: &FitResult) -> String {
         let _ = writeln!(s, "  NOT USABLE: {why}");
     }
     s
+}
+
+/// An interval as `[lo, hi]`, an open end as −∞ or ∞.
+pub fn interval_text(lo: f64, hi: f64) -> String {
+    let end = |v: f64| {
+        if v == f64::NEG_INFINITY {
+            "−∞".to_string()
+        } else if v == f64::INFINITY {
+            "∞".to_string()
+        } else {
+            readable(v)
+        }
+    };
+    format!("[{}, {}]", end(lo), end(hi))
 }
 
 /// One model's fits to the channels of a file as one table, a row per channel: the

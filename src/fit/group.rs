@@ -1,13 +1,18 @@
 //! One fit of one channel, or a joint fit of several, through the stages in order.
 
 use super::checks::certify;
+use super::conserve;
 use super::lsq::{self, Robust};
 use super::options::{FitError, FitOptions, fit_error};
 use super::physical;
+use super::problem::BrdfProblem;
 use super::result::{FitResult, UNCONVERGED};
+use super::setup::Layout;
 use super::setup::{ChannelRows, check_data, layout, problem};
+use super::solve::Search;
 use super::solve::{self, search};
 use super::stats::{reported, uncertainty};
+use crate::model::readable;
 use crate::support::setting::Setting;
 use std::time::Instant;
 
@@ -25,6 +30,15 @@ pub(super) fn fit_group(
     check_data(&chans, &lay, opts, &channel_label)?;
     let m: usize = chans.iter().map(|c| c.rows.len()).sum();
     let weighted = chans.iter().any(|c| c.rows.weighted());
+    // The largest θi the data reach (degrees), for the note of a fit held by energy
+    // conservation beyond it.
+    let measured_deg = chans
+        .iter()
+        .flat_map(|c| c.rows.nl.iter())
+        .fold(1.0f64, |a, &b| a.min(b))
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees();
     let nfree = lay.transforms.len();
     let full = problem(chans, &lay, opts);
     let mut found = search(&full, &lay, opts);
@@ -67,8 +81,34 @@ pub(super) fn fit_group(
     if !found.sol.converged {
         warnings.push(format!("{UNCONVERGED}: {}", found.sol.termination));
     }
-    let checks = certify(&full, &mut found, &lay, &theta, opts);
-    let u = uncertainty(&full, &found.sol, &theta, cost, &lay, opts, &mut warnings);
+    let mut checks = certify(&full, &mut found, &lay, &theta, opts);
+    let (mut theta, mut cost) = (theta, cost);
+    let mut stat_opts = std::borrow::Cow::Borrowed(opts);
+    if opts.conserve
+        && let Some(held) = hold_energy(&full, &mut found, &lay, opts, measured_deg)
+    {
+        theta = (0..nfree)
+            .map(|k| full.transforms[k].apply(found.sol.x[k]).0)
+            .collect();
+        cost = held.0;
+        checks.kkt_violation = held.1.0;
+        checks
+            .unusable
+            .retain(|w| !w.starts_with(super::checks::FIRST_ORDER));
+        checks.unusable.extend(held.1.1);
+        warnings.push(held.2);
+        // The profiles refit the unconstrained problem, whose minimum lies elsewhere.
+        stat_opts.to_mut().profile = false;
+    }
+    let u = uncertainty(
+        &full,
+        &found.sol,
+        &theta,
+        cost,
+        &lay,
+        &stat_opts,
+        &mut warnings,
+    );
     let (params, stderr, free, correlation) = reported(&lay, &theta, &u);
     let rss = 2.0 * cost;
     let mf = m as f64;
@@ -102,6 +142,7 @@ pub(super) fn fit_group(
         aic: loglike_term + 2.0 * kf,
         n_free: nfree,
         ranges: u.ranges,
+        interval_level: super::stats::INTERVAL_LEVEL,
         at_bound: u.at_bound,
         kkt_violation: checks.kkt_violation,
         verification: checks.verification,
@@ -114,4 +155,63 @@ pub(super) fn fit_group(
     result.seconds = geometry_seconds + fit_seconds;
     result.statistics_seconds = fit_seconds - solve_seconds;
     Ok(result)
+}
+
+/// Energy conservation as a constraint ([`conserve`]): where the least-squares minimum of
+/// `found` reflects more light than arrives at some θi, `found` becomes the best fit that does
+/// not. Returns the declared loss's cost there, the first-order conditions of the constrained
+/// problem, and the note; `None` (and `found` untouched) where the minimum conserves energy or
+/// no constrained fit could be made.
+fn hold_energy(
+    full: &BrdfProblem,
+    found: &mut Search,
+    lay: &Layout,
+    opts: &FitOptions,
+    measured_deg: f64,
+) -> Option<(f64, (f64, Option<String>), String)> {
+    let limits = solve::polish_limits(full, opts);
+    let before = found.sol.cost;
+    let worst = full
+        .models(&found.sol.x)
+        .iter()
+        .map(crate::model::albedo::max_albedo)
+        .fold(
+            (0.0, f64::NEG_INFINITY),
+            |a, b| if b.1 > a.1 { b } else { a },
+        );
+    let held = conserve::constrain(
+        full,
+        &found.sol.x,
+        &lay.names,
+        physical::ALBEDO_MARGIN,
+        found.robust,
+        &limits,
+    )?;
+    let cost = lsq::cost(full, &held.x, Robust::None)?;
+    found.iterations += held.iterations;
+    found.evaluations += held.evaluations;
+    found.sol.x = held.x;
+    found.sol.cost = held.cost;
+    found.sol.normal = None;
+    let angles: Vec<String> = held.angles_deg.iter().map(|t| format!("{t}°")).collect();
+    let beyond = if held.angles_deg.iter().all(|&t| t > measured_deg + 0.5) {
+        format!(
+            " (beyond the data, which reach θi = {}°)",
+            crate::model::significant(measured_deg, 3)
+        )
+    } else {
+        String::new()
+    };
+    let note = format!(
+        "{}: its least-squares minimum reflects {} of the light at θi = {}°; held to 1 at θi = \
+         {}{beyond}, the cost rises by {} % ({} → {})",
+        conserve::HELD,
+        readable(worst.1),
+        worst.0,
+        angles.join(", "),
+        readable(100.0 * (held.cost / before - 1.0)),
+        readable(before),
+        readable(held.cost),
+    );
+    Some((cost, held.kkt, note))
 }

@@ -26,6 +26,7 @@
 
 mod argmin_peer;
 mod checks;
+pub mod conserve;
 mod dispatch;
 mod fitfile;
 mod format;
@@ -36,6 +37,7 @@ mod models;
 mod options;
 pub mod physical;
 mod progress;
+mod quantile;
 mod read;
 mod result;
 mod run;
@@ -54,15 +56,17 @@ pub use fitfile::{
     pick_one, read_fit_file, same_channel,
 };
 pub use format::{
-    all_models, format_channels, format_fit, format_ranking, format_ranking_line, rank,
+    all_models, format_channels, format_fit, format_ranking, format_ranking_line, interval_text,
+    rank,
 };
 pub use lsq::{Limits, Method};
 pub use models::{fit_models, fit_models_with_progress, options_per_model};
 pub use options::{FitError, FitOptions, RESOLUTION, RobustKind, Weighting};
 pub use problem::Loss;
 pub use progress::{TICK, Watch, ticking, with_count};
+pub use quantile::t_quantile;
 pub use result::{FitResult, KKT_TOLERANCE, SAME_MINIMUM, Verification, fits_json};
 pub use run::{fit, fit_timed};
 pub use setup::solid_angle_weights;
 pub use solve::random_start;
-pub use stats::describe_range;
+pub use stats::{INTERVAL_LEVEL, describe_range};

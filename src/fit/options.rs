@@ -104,6 +104,10 @@ pub struct FitOptions {
     pub resolution: f64,
     /// Profile undetermined parameters to report the range that fits.
     pub profile: bool,
+    /// Hold energy conservation (directional albedo ≤ 1 at every θi the physical check
+    /// looks at) as a constraint of the fit: where the least-squares minimum breaks it, the
+    /// fit is solved again on the feasible set ([`crate::fit::conserve`]).
+    pub conserve: bool,
     /// Random local starts run after the fit as a certificate (0 = none); see
     /// [`Verification`](crate::fit::Verification).
     pub verify: usize,
@@ -133,6 +137,7 @@ impl FitOptions {
             limits: Limits::default(),
             resolution: RESOLUTION,
             profile: true,
+            conserve: true,
             verify: 0,
             seed: 1,
             watch: None,

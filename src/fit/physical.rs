@@ -70,14 +70,21 @@ pub fn model_problems(m: &Model) -> Vec<String> {
                 .into_iter()
                 .fold((0.0, 0.0), |b, x| if x.1 > b.1 { x } else { b });
             if a > 1.0 + ALBEDO_MARGIN {
-                let ps = m.role(Role::Specular).unwrap_or(f64::NAN);
+                // Every lobe's coefficient (two-lobe models: ps1 and ps2), named.
+                let ps: Vec<String> = m
+                    .specs()
+                    .iter()
+                    .zip(m.params())
+                    .filter(|(s, _)| s.role == Role::Specular)
+                    .map(|(s, v)| format!("{} = {}", s.name, readable(*v)))
+                    .collect();
                 out.push(format!(
                     "n = {} is at or near its lower bound, where F ≈ 0 holds the lobe down: with F = 1 \
-                     (any real index at grazing incidence) ps = {} would give a directional \
+                     (any real index at grazing incidence) {} would give a directional \
                      albedo of {} at θi = {t}°; fix n to a physical index (--fix n=1.5) or \
                      fit another model",
                     crate::model::significant(n, 5),
-                    readable(ps),
+                    ps.join(", "),
                     readable(a)
                 ));
             }

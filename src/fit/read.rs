@@ -78,6 +78,7 @@ impl FitResult {
             aic: f("aic"),
             n_free: n,
             ranges: vec![],
+            interval_level: 0.0,
             at_bound: v
                 .get("at_bound")
                 .and_then(|x| x.as_object())

@@ -116,10 +116,15 @@ pub struct FitResult {
     pub aic: f64,
     /// Number of free parameters.
     pub n_free: usize,
-    /// Profiled ranges of the nonlinear parameters: values within 1 % of the minimum cost
-    /// (upper bound ∞ when the range is open).
-    #[serde(default, with = "json::ranges")]
+    /// Each free parameter's confidence interval at `interval_level`, by profile likelihood
+    /// (the JSON key `intervals`; ∓∞ where it is open on that side). Fit files of earlier
+    /// versions held the values within 1 % of the minimum cost under `ranges`: read here, with
+    /// `interval_level` 0.
+    #[serde(default, rename = "intervals", alias = "ranges", with = "json::ranges")]
     pub ranges: Vec<(String, f64, f64)>,
+    /// The confidence level of `ranges` (0.95); 0 for a fit file of an earlier version.
+    #[serde(default)]
+    pub interval_level: f64,
     /// Parameters that ended on a bound of their admissible range, with the side (`lower` or
     /// `upper`).
     #[serde(with = "json::pairs")]
@@ -175,7 +180,7 @@ impl FitResult {
 
     /// Short flags: `unconverged` for a fit whose solver stopped at a limit before converging
     /// (its warning says which), `bound:NAME` for a parameter on a bound, `weak:NAME` for one
-    /// the data determine only weakly (its range within 1 % of the minimum cost is wide).
+    /// the data determine only weakly (its confidence interval is wide).
     pub fn flags(&self) -> Vec<String> {
         let mut flags = Vec::new();
         if self.warnings.iter().any(|w| w.starts_with(UNCONVERGED)) {

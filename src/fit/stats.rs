@@ -29,36 +29,42 @@ pub(super) fn uncertainty(
     let m = full.rows.len();
     let nfree = theta.len();
     let (se, corr, singular) = statistics(full, sol, theta, cost, m);
-    // The subsample the profiles run on, made only if a range is profiled.
-    let prof = std::sync::OnceLock::new();
-    // Each free parameter's 1 % range, the parameters in parallel (a profile is a series of
-    // refits; each range is the same on any number of threads).
+    // The profile-likelihood interval at INTERVAL_LEVEL: the values of a parameter at which
+    // the cost, the others refitted, stays below S (1 + F/(m − p)), F = t² the F(1, m − p)
+    // quantile (Bates & Watts, "Nonlinear Regression Analysis and Its Applications", 1988,
+    // §6.1.2, the profile t; σ² = 2S/(m − p)).
+    let dof = m.saturating_sub(nfree).max(1) as f64;
+    let q = {
+        let t = super::quantile::t_quantile(INTERVAL_LEVEL, dof);
+        t * t
+    };
+    let rise = 1.0 + q / dof;
+    // Each free parameter's interval, the parameters in parallel (a profile is a series of
+    // refits; each interval is the same on any number of threads).
     let range_of = |k: usize| -> Option<(f64, f64)> {
-        // The quadratic model of the cost gives the 1 % range in solver space,
-        // Δu = (σ_θ/|dθ/du|)·√(0.01 (m − p)); where it is narrow (a factor ≤ 1.2, inside the
-        // bounds) it stands, otherwise the cost is profiled for real.
+        // The quadratic model of the cost: the Wald half-width in solver space,
+        // Δu = (σ_θ/|dθ/du|)·t; where the profile is not run (or this is a fit held by a
+        // constraint), the interval.
         let t = full.transforms[k];
         let (ulo, uhi) = t.bounds();
-        let du = se[k] / t.apply(sol.x[k]).1.abs().max(1e-300)
-            * (0.01 * (m.saturating_sub(nfree)) as f64).sqrt();
-        let quadratic = (du.is_finite() && sol.x[k] - du > ulo && sol.x[k] + du < uhi)
-            .then(|| {
-                let (a, b) = (t.apply(sol.x[k] - du).0, t.apply(sol.x[k] + du).0);
-                (a.min(b), a.max(b))
-            })
-            .filter(|(a, b)| *a > 0.0 && b / a <= 1.2);
-        if !opts.profile {
-            None
-        } else if quadratic.is_some() {
-            quadratic
-        } else {
-            let (q, centre) = prof.get_or_init(|| {
-                let q = full.subsample(PROFILE_ROWS);
-                let centre = profile_centre(&q, &sol.x, opts);
-                (q, centre)
-            });
-            profile_range(q, &sol.x, Some((&centre.0, centre.1)), k, du, opts)
+        let du = se[k] / t.apply(sol.x[k]).1.abs().max(1e-300) * q.sqrt();
+        if opts.profile {
+            return profile_range(full, &sol.x, None, k, du, rise, opts);
         }
+        if !du.is_finite() {
+            return None;
+        }
+        let lo = if sol.x[k] - du > ulo {
+            t.apply(sol.x[k] - du).0
+        } else {
+            f64::NEG_INFINITY
+        };
+        let hi = if sol.x[k] + du < uhi {
+            t.apply(sol.x[k] + du).0
+        } else {
+            f64::INFINITY
+        };
+        Some((lo, hi))
     };
     let all_ranges: Vec<Option<(f64, f64)>> = {
         use rayon::prelude::*;
@@ -78,7 +84,7 @@ pub(super) fn uncertainty(
         // A shape parameter at the end of its box has run off (a linear one at 0 is an answer).
         let ran_off = side != 0 && matches!(t.scale, Scale::Log { .. });
         let rel = se[k] / theta[k].abs().max(1e-300);
-        // Weak: the 1 % range spans more than a factor 1.25, or reaches a bound.
+        // Weak: the interval spans more than a factor 1.25, or reaches a bound.
         let wide = range.is_some_and(|(a, b)| !(b / a <= 1.25) || a == f64::NEG_INFINITY);
         if let Some((a, b)) = range {
             ranges.push((name.clone(), a, b));
@@ -108,7 +114,7 @@ pub(super) fn uncertainty(
                 format!("{name} is only weakly determined by the data")
             };
             warnings.push(match range {
-                Some(r) => format!("{why}: {}", describe_range(name, r)),
+                Some(r) => format!("{why}: {}", describe_range(name, r, INTERVAL_LEVEL)),
                 None => why,
             });
         }
@@ -246,49 +252,43 @@ pub(super) fn statistics(
     (se, corr, singular)
 }
 
-/// Human-readable form of a profiled range (∞ upper bound = open).
-pub fn describe_range(name: &str, (lo, hi): (f64, f64)) -> String {
+/// The confidence level of the intervals a fit reports (`interval_level` in the fit JSON).
+pub const INTERVAL_LEVEL: f64 = 0.95;
+
+/// Human-readable form of an interval (∓∞ = open on that side) at confidence `level`; a
+/// level of 0 (fit files of earlier versions, whose `ranges` held the values within 1 % of
+/// the minimum cost) says so.
+pub fn describe_range(name: &str, (lo, hi): (f64, f64), level: f64) -> String {
     let what = match (lo == f64::NEG_INFINITY, hi == f64::INFINITY) {
         (true, true) => format!("any {name}"),
         (true, false) => format!("{name} ≤ {}", readable(hi)),
         (false, true) => format!("{name} ≥ {}", readable(lo)),
         (false, false) => format!("{name} in [{}, {}]", readable(lo), readable(hi)),
     };
-    format!("{what} fits within 1 % of the minimum cost")
+    if level > 0.0 {
+        format!("{what} ({} % confidence)", readable(100.0 * level))
+    } else {
+        format!("{what} fits within 1 % of the minimum cost")
+    }
 }
 
-/// The relative cost reduction that ends a profile refit.
+/// The relative cost reduction that ends a profile refit, at most.
 const PROFILE_FTOL: f64 = 1e-6;
 
-/// Rows per channel of the subsample a range is profiled on.
-const PROFILE_ROWS: usize = 1000;
-
-/// The limits of a profile refit. The 1 % test needs the profiled cost to a few digits only:
-/// a refit stopped at a relative reduction of 1e-6 moves an end by about 1e-4 of its distance,
-/// well inside the bracket's 1 % resolution.
-fn profile_limits(opts: &FitOptions) -> Limits {
+/// The limits of a profile refit whose limit is `rise` times the minimum cost: stopped at a
+/// relative reduction of at most a hundredth of the rise (and [`PROFILE_FTOL`]), which moves an
+/// end by well under the bracket's 1 % resolution.
+fn profile_limits(opts: &FitOptions, rise: f64) -> Limits {
     Limits {
         max_iter: 40,
-        ftol: PROFILE_FTOL,
+        ftol: PROFILE_FTOL.min(0.01 * (rise - 1.0)),
         ..opts.limits
     }
 }
 
-/// The subsample's own minimum and its cost, refitted from the fit's optimum `x` (with the
-/// profiles' limits), or `x` where that refit ends no lower: where the profiled cost bottoms
-/// out (see [`crossing`]'s `vertex`).
-pub(super) fn profile_centre(p: &BrdfProblem, x: &[f64], opts: &FitOptions) -> (Vec<f64>, f64) {
-    let c = lsq::cost(p, x, Robust::None).unwrap_or(f64::INFINITY);
-    let s = lsq::levenberg_marquardt(p, x, Robust::None, &profile_limits(opts));
-    if s.cost < c {
-        (s.x, s.cost)
-    } else {
-        (x.to_vec(), c)
-    }
-}
-
 /// Profile a free variable on problem `p`: hold it at probed values, refit the rest, and
-/// return the range of values whose cost is within 1 % of the minimum. The bounds are the
+/// return the range of values whose cost is at most `rise` times the minimum (1.01: within
+/// 1 %; a confidence interval's 1 + F/(m − p)). The bounds are the
 /// nearest probed values that do *not* fit, so the range contains every value that does; an
 /// end that reaches the parameter's own bound is ∓∞ (open). `du` is the step in solver space
 /// the quadratic model of the cost predicts for a 1 % rise (where it is not finite, 0.05):
@@ -301,11 +301,12 @@ pub(super) fn profile_range(
     centre: Option<(&[f64], f64)>,
     k: usize,
     du: f64,
+    rise: f64,
     opts: &FitOptions,
 ) -> Option<(f64, f64)> {
     let t = p.transforms[k];
     let (ulo, uhi) = t.bounds();
-    let limits = profile_limits(opts);
+    let limits = profile_limits(opts, rise);
     // The problem with variable k held at solver value u (the rest free).
     let held_problem = |u: f64| -> BrdfProblem {
         let mut q = p.clone();
@@ -323,7 +324,7 @@ pub(super) fn profile_range(
         q
     };
     let c0 = lsq::cost(p, x, Robust::None)?;
-    let limit = 1.01 * c0;
+    let limit = rise * c0;
     let mut rest = x.to_vec();
     rest.remove(k);
     // Cost with variable k held at u, the rest refitted from `warm`, and where they ended. A
@@ -608,7 +609,7 @@ mod tests {
         let delta = pi * 0.0125f64.sqrt();
         assert!((delta - 0.351_240).abs() < 1e-6);
         for du in [delta, 0.05, f64::NAN] {
-            let (lo, hi) = profile_range(&p, &x, None, 0, du, &opts).expect("a finite cost");
+            let (lo, hi) = profile_range(&p, &x, None, 0, du, 1.01, &opts).expect("a finite cost");
             // (An end may be the crossing itself, whose cost rounds above the limit.)
             let (dlo, dhi) = (2.5 * pi - lo, hi - 2.5 * pi);
             assert!(dlo >= delta * (1.0 - 1e-9) && dlo <= 1.0101 * delta, "{lo}");

@@ -38,7 +38,8 @@ pub fn fig7_images_with_progress(
 
 /// The square crop (x0, y0, side) of the images that holds every pixel brighter than `level`
 /// (sRGB, in any image) with a margin: the whole image unless the visible part is small, so a thin
-/// edge-lit crescent is shown large.
+/// edge-lit crescent is shown large. The whole image is (0, 0, longer side): [`zoom_crop`]
+/// centres a non-square image in that square.
 pub fn visible_crop(srgb: &[Vec<u8>], w: u32, h: u32, level: u8) -> (u32, u32, u32) {
     let (mut x0, mut y0, mut x1, mut y1) = (w, h, 0, 0);
     for y in 0..h {
@@ -49,14 +50,15 @@ pub fn visible_crop(srgb: &[Vec<u8>], w: u32, h: u32, level: u8) -> (u32, u32, u
             }
         }
     }
+    // The whole image: a square as large as its longer side, which `zoom_crop` fills by
+    // centring the image in it (a 384×256 scene shown whole, not its left square).
+    let whole = (0, 0, w.max(h));
     if x1 < x0 {
-        return (0, 0, w.min(h));
+        return whole;
     }
-    let side = ((x1 - x0).max(y1 - y0) + 1 + w / 16)
-        .max(w / 8)
-        .min(w.min(h));
+    let side = ((x1 - x0).max(y1 - y0) + 1 + w / 16).max(w / 8);
     if side * 10 > w.min(h) * 7 {
-        return (0, 0, w.min(h));
+        return whole;
     }
     let cx = (x0 + x1) / 2;
     let cy = (y0 + y1) / 2;
@@ -69,9 +71,22 @@ pub fn visible_crop(srgb: &[Vec<u8>], w: u32, h: u32, level: u8) -> (u32, u32, u
 /// resampled to `tile`×`tile` with a smooth filter (Catmull–Rom bicubic, as the `image`
 /// crate's `imageops::resize`, whose support widens when it shrinks: [`resize_catmull_rom`]):
 /// a zoomed crescent shows smooth edges, not blocks of pixels. The crop is clamped to the
-/// image.
+/// image, but for the whole image ([`visible_crop`]'s (0, 0, longer side)), which is centred
+/// in the square.
 pub fn zoom_crop(rgb: &[u8], w: u32, (cx, cy, side): (u32, u32, u32), tile: u32) -> Vec<u8> {
     let h = (rgb.len() / 3) as u32 / w.max(1);
+    if (cx, cy) == (0, 0) && side > w.min(h) && side >= w.max(h) && w > 0 && h > 0 {
+        // The whole image centred in a black square as large as its longer side.
+        let side = side as usize;
+        let (w, h) = (w as usize, h as usize);
+        let (ox, oy) = ((side - w) / 2, (side - h) / 2);
+        let mut square = vec![0u8; 3 * side * side];
+        for y in 0..h {
+            let to = 3 * ((y + oy) * side + ox);
+            square[to..to + 3 * w].copy_from_slice(&rgb[3 * y * w..3 * (y + 1) * w]);
+        }
+        return resize_catmull_rom(&square, (side, side), (tile as usize, tile as usize));
+    }
     let (cx, cy) = (cx.min(w.saturating_sub(1)), cy.min(h.saturating_sub(1)));
     let side = side.min(w - cx).min(h - cy).max(1) as usize;
     let (w, cx, cy) = (w as usize, cx as usize, cy as usize);
@@ -190,4 +205,31 @@ pub fn contact_sheet(images: &[(String, Image)]) -> anyhow::Result<Vec<u8>> {
             .map_err(|e| anyhow::anyhow!("drawing failed: {e:?}"))?;
     }
     crate::support::png::encode_png(w, h, &buf)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 384×256 scene (a test object at its right, another at its left, both large enough
+    /// for the whole image to be shown): the tile holds both, the image centred (its top and
+    /// bottom 64 of 384 rows black). Cropped to its left square, the right object was lost.
+    #[test]
+    fn a_wide_scene_is_shown_whole() {
+        let (w, h) = (384u32, 256u32);
+        let mut rgb = vec![0u8; 3 * (w * h) as usize];
+        for y in 60..200 {
+            for x in (20..80).chain(300..370) {
+                let i = 3 * (y * w + x) as usize;
+                rgb[i..i + 3].copy_from_slice(&[255, 255, 255]);
+            }
+        }
+        let crop = visible_crop(std::slice::from_ref(&rgb), w, h, 8);
+        assert_eq!(crop, (0, 0, 384));
+        let tile = zoom_crop(&rgb, w, crop, 96);
+        let at = |x: usize, y: usize| tile[3 * (y * 96 + x)];
+        // x 300–370 of 384 → 75–92 of 96; 20–80 → 5–20; y 60–200 (+64) → 31–66.
+        assert!(at(84, 48) > 200 && at(12, 48) > 200, "both objects shown");
+        assert!(at(48, 48) < 20 && at(84, 8) < 20 && at(84, 90) < 20);
+    }
 }

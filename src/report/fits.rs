@@ -184,7 +184,7 @@ pub(super) fn parameters(
                     .ranges
                     .iter()
                     .find(|r| r.0 == *n)
-                    .map_or(String::new(), |r| fit::describe_range(n, (r.1, r.2)));
+                    .map_or(String::new(), |r| fit::interval_text(r.1, r.2));
                 vec![
                     n.clone(),
                     crate::model::readable(*v),
@@ -208,7 +208,7 @@ pub(super) fn parameters(
                 "parameter",
                 "value",
                 "std. error",
-                "range within 1 % of the minimum cost",
+                &interval_head(f.interval_level),
             ],
             &rows,
         );
@@ -244,4 +244,17 @@ pub(super) fn parameters(
     }
 
     Ok(())
+}
+
+/// The heading of a parameter table's interval column at confidence `level` (0: a fit file
+/// of an earlier version, whose column held the values within 1 % of the minimum cost).
+fn interval_head(level: f64) -> String {
+    if level > 0.0 {
+        format!(
+            "{} % confidence interval (profile likelihood)",
+            crate::model::readable(100.0 * level)
+        )
+    } else {
+        "range within 1 % of the minimum cost".into()
+    }
 }

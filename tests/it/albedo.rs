@@ -186,8 +186,29 @@ fn unphysical_models_are_named() {
     assert!(a < 1.0 && (0.0..=85.0).contains(&t));
 }
 
+/// The low-index rule names every lobe's coefficient of a two-lobe model: with ps1 = 0 and
+/// ps2 = 1.7e6 (a lobe held down by F ≈ 0), the message gives both, so the huge one is seen.
+#[test]
+fn the_low_index_message_names_each_lobe() {
+    let m = model(
+        ModelKind::GgxSmith2,
+        &[0.05, 0.0, 0.2, 1.695e6, 1.0001, 0.3],
+    );
+    let why = model_problems(&m);
+    let low = why
+        .iter()
+        .find(|w| w.contains("lower bound"))
+        .expect("rule 3");
+    assert!(
+        low.contains("ps1 = 0") && low.contains("ps2 = 1.695e6"),
+        "{low}"
+    );
+}
+
 /// `fit` applies the rules: Lambertian data with albedo 1.5 fits pd = 1.5, marked not usable
-/// with the reason.
+/// with the reason when energy conservation is not a constraint of the fit; with it (the
+/// default), the fit is held at pd = 1, the best physical fit (the cost is convex in pd, so its
+/// minimum over pd ≤ 1 is the bound), usable, with a note.
 #[test]
 fn fit_marks_an_albedo_above_one() {
     let truth = model(ModelKind::Lambert, &[1.0]);
@@ -200,9 +221,19 @@ fn fit_marks_an_albedo_above_one() {
     for v in ds.channels[0].values.iter_mut() {
         *v *= 1.5;
     }
-    let f = brdfit::fit(&ds, &brdfit::FitOptions::new(ModelKind::Lambert))
+    let held = brdfit::fit(&ds, &brdfit::FitOptions::new(ModelKind::Lambert))
         .unwrap()
         .remove(0);
+    assert!((held.get("pd").unwrap() - 1.0).abs() < 1e-9, "{held:?}");
+    assert!(held.usable(), "{:?}", held.unusable);
+    assert!(
+        held.warnings
+            .iter()
+            .any(|w| w.starts_with(brdfit::fit::conserve::HELD))
+    );
+    let mut free = brdfit::FitOptions::new(ModelKind::Lambert);
+    free.conserve = false;
+    let f = brdfit::fit(&ds, &free).unwrap().remove(0);
     assert!((f.get("pd").unwrap() - 1.5).abs() < 1e-6);
     assert!(!f.usable());
     assert!(

@@ -713,7 +713,30 @@ fn fit_command_polish() {
             let col = head.iter().position(|h| h == n).unwrap();
             assert_eq!(row[col].is_empty(), f.get(n).is_none(), "{n}: {row:?}");
         }
+        // Each interval's ends are the JSON's, and the row says whether it is recommended.
+        for (n, lo, hi) in &f.ranges {
+            let at = |k: String| row[head.iter().position(|h| *h == k).unwrap()];
+            assert_eq!(at(format!("{n}_lo")).parse::<f64>().unwrap(), *lo, "{n}");
+            assert_eq!(at(format!("{n}_hi")).parse::<f64>().unwrap(), *hi, "{n}");
+        }
+        let col = head.iter().position(|h| *h == "recommended").unwrap();
+        // The recommended label of this channel: the ranking line's part marked ←.
+        let line = out
+            .lines()
+            .find(|l| l.trim_start().starts_with(&format!("{} ", f.channel)) && l.contains('←'))
+            .unwrap();
+        let part = line
+            .trim_start()
+            .strip_prefix(f.channel.as_str())
+            .unwrap()
+            .split(", ")
+            .find(|p| p.ends_with('←'))
+            .unwrap();
+        let label = part.trim().rsplit_once(" +").unwrap().0;
+        assert_eq!(row[col] == "true", label == f.label(), "{}", f.label());
     }
+    let recommended = rows.iter().filter(|r| r.contains(&"true")).count();
+    assert_eq!(recommended, 3, "one recommendation a channel");
 }
 
 /// A file with several torrance-sparrow distributions: `--model torrance-sparrow` takes d3 and

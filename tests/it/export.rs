@@ -483,6 +483,20 @@ fn a_colour_compromise_keeps_each_channel_near_its_own_model() {
     let picked = brdfit::fit::pick(&fits, &brdfit::fit::Want::default()).unwrap();
     let colour: Colour = picked.colour().unwrap();
     assert!(!colour.exact, "the channels' lobes differ: a compromise");
+    // Its Mitsuba XML: no comment holds `--` (XML 1.0 §2.5 forbids it; Python's parsers
+    // refuse the file), and the heading does not call the compromise exact.
+    let xml = brdfit::export::mitsuba(&colour, "m").unwrap();
+    let mut rest = xml.as_str();
+    while let Some(a) = rest.find("<!--") {
+        let body = &rest[a + 4..];
+        let b = body.find("-->").expect("a closed comment");
+        assert!(!body[..b].contains("--"), "{}", &body[..b]);
+        rest = &body[b + 3..];
+    }
+    assert!(
+        xml.contains("compromise") && !xml.contains("(exact)"),
+        "{xml}"
+    );
     for (c, f) in fits.iter().enumerate() {
         let own = f.model_for(0);
         let shared = colour.channel_model(c);

@@ -41,7 +41,12 @@ fn values_worked_by_hand() {
 
 /// Directional albedo ∫ f_r cosθo dω by the midpoint rule over the hemisphere.
 fn albedo(m: &Model, theta_i: f64) -> f64 {
-    let (nt, np) = (1200, 600);
+    midpoint_albedo(m, theta_i, 1200, 600)
+}
+
+/// Directional albedo ∫ f_r cosθo dω by the midpoint rule on `nt` × `np` cells in (θo, φo)
+/// over the whole hemisphere: a quadrature independent of `model::albedo`'s.
+pub fn midpoint_albedo(m: &Model, theta_i: f64, nt: usize, np: usize) -> f64 {
     let (dt, dp) = (0.5 * PI / nt as f64, 2.0 * PI / np as f64);
     let mut sum = 0.0;
     for i in 0..nt {

@@ -665,6 +665,12 @@ fn choose_refuses_a_test_object_with_no_lit_pixel() {
             catalogue_scene(&[("position = [2.0, 4.0, 5.0]", "position = [0.0, 0.7, 0.0]")]),
             "no light reaches them",
         ),
+        // The only light under the floor: it faces the sphere's lower side, which the camera
+        // sees, but the floor shadows all of it.
+        (
+            catalogue_scene(&[("position = [2.0, 4.0, 5.0]", "position = [0.0, -3.0, 1.0]")]),
+            "cast their shadow",
+        ),
     ];
     for (k, (text, fragment)) in cases.iter().enumerate() {
         let p = d.join(format!("dark{k}.toml"));

@@ -32,6 +32,8 @@ const KEYS: &[&str] = &[
     "aic",
     "n_free",
     "ranges",
+    "intervals",
+    "interval_level",
     "at_bound",
     "kkt_violation",
     "verified",
