@@ -81,6 +81,7 @@ pub fn parse_all(path: &Path, text: &str) -> Result<Vec<Nbrdf>, DataError> {
 
 /// Every network of a weights file, in file order.
 pub fn load_all(path: &Path) -> Result<Vec<Nbrdf>, DataError> {
+    crate::support::input::check_regular(path, crate::support::input::Input::Data)?;
     let text = std::fs::read_to_string(path).map_err(|e| io_error(path, &e))?;
     parse_all(path, &text)
 }

@@ -53,6 +53,7 @@ pub fn save(prior: &Prior, path: &Path) -> std::io::Result<()> {
 
 /// Read a prior file written by [`save`].
 pub fn load(path: &Path) -> Result<Prior, DataError> {
+    crate::support::input::check_regular(path, crate::support::input::Input::Data)?;
     let bytes = std::fs::read(path).map_err(|e| crate::data::io_error(path, &e))?;
     let bad = |line: Option<u64>, msg: String| {
         DataError::new(

@@ -206,8 +206,14 @@ fn measure_sparse_references() {
         "| material | case | ꟻLIP p99 vs exact | stated reference_error | verdict (chosen / closest) |"
     );
     println!("|---|---|---:|---:|---|");
-    for name in MATERIALS {
-        let net = net(name);
+    // BRDFIT_WEIGHTS and BRDFIT_MATERIALS: other networks (e.g. data/nbrdf_weights.json and
+    // nielsen/cardboard,…).
+    let names = std::env::var("BRDFIT_MATERIALS").unwrap_or(MATERIALS.join(","));
+    for name in names.split(',') {
+        let net = match std::env::var("BRDFIT_WEIGHTS") {
+            Ok(w) => Nbrdf::load(std::path::Path::new(&w), name).unwrap(),
+            Err(_) => net(name),
+        };
         let ds = sampled(&net, Grid::Goniometer);
         let cases: Vec<Case> = [("front", 15.0), ("edge", 95.0)]
             .iter()
