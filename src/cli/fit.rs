@@ -234,7 +234,7 @@ fn check_fit_count(file: &Path, channels: usize, models: usize) -> Result<()> {
 }
 
 /// Smallest largest-value a fitted file may have (f_r in 1/sr): 1e-9. The fits agree with
-/// the truth from there up (Blinn's MgO scaled by 1e-10 to 1e12 gives the same n and c3 to
+/// the truth from there up to albedo 1 (Blinn's MgO scaled by 1e-8 to 1 gives the same n and c3 to
 /// 0.1 %), but below about 1e-11 the bounds' absolute tolerances take ps and pd for zero (scaled
 /// by 1e-12 it ended at n = 3001 against the truth's 1.8). No measured material is that dark.
 pub(crate) const MIN_LARGEST_VALUE: f64 = 1e-9;

@@ -428,8 +428,9 @@ fn fits_do_not_depend_on_the_data_scale_within_the_bound() {
     let dir = tempfile::tempdir().unwrap();
     // Within the bound the truth's n and c3 come back at every scale (the log loss reads
     // relative errors at large values and absolute ones at small values, so they differ
-    // from the unit-scale fit by the noise only).
-    for scale in [1e-8, 1e-4, 1e4, 1e9] {
+    // from the unit-scale fit by the noise only). Scaled above 1, the data reflect more
+    // light than arrives and the fit is held at albedo 1 (`fit::conserve`): not a scale test.
+    for scale in [1e-8, 1e-4, 1e-2, 1.0] {
         let f = scaled_mgo(dir.path(), scale);
         let json = dir.path().join(format!("fit-{scale:e}.json"));
         let o = brdfit(&[
