@@ -169,16 +169,17 @@ fn hold_energy(
     opts: &FitOptions,
     measured_deg: f64,
 ) -> Option<(f64, (f64, Option<String>), String)> {
+    let models = full.models(&found.sol.x);
+    // Most fits are clearly physical: the coarse screen spares them the fine quadrature.
+    if models.iter().all(physical::clearly_below_one) {
+        return None;
+    }
     let limits = solve::polish_limits(full, opts);
     let before = found.sol.cost;
-    let worst = full
-        .models(&found.sol.x)
-        .iter()
-        .map(crate::model::albedo::max_albedo)
-        .fold(
-            (0.0, f64::NEG_INFINITY),
-            |a, b| if b.1 > a.1 { b } else { a },
-        );
+    let worst = models.iter().map(crate::model::albedo::max_albedo).fold(
+        (0.0, f64::NEG_INFINITY),
+        |a, b| if b.1 > a.1 { b } else { a },
+    );
     let held = conserve::constrain(
         full,
         &found.sol.x,

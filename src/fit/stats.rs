@@ -49,7 +49,18 @@ pub(super) fn uncertainty(
         let (ulo, uhi) = t.bounds();
         let du = se[k] / t.apply(sol.x[k]).1.abs().max(1e-300) * q.sqrt();
         if opts.profile {
-            return profile_range(full, &sol.x, None, k, du, rise, opts);
+            // How the others move with variable k along the profile, to first order
+            // (Σ_jk/Σ_kk in solver space): each refit starts where the quadratic model puts
+            // its minimum.
+            let chain = |j: usize| full.transforms[j].apply(sol.x[j]).1;
+            let slope: Vec<f64> = (0..nfree)
+                .filter(|&j| j != k)
+                .map(|j| {
+                    let s = corr[j][k] * se[j] / se[k] * chain(k) / chain(j);
+                    if s.is_finite() { s } else { 0.0 }
+                })
+                .collect();
+            return profile_range(full, &sol.x, None, k, du, rise, &slope, opts);
         }
         if !du.is_finite() {
             return None;
@@ -294,7 +305,10 @@ fn profile_limits(opts: &FitOptions, rise: f64) -> Limits {
 /// the quadratic model of the cost predicts for a 1 % rise (where it is not finite, 0.05):
 /// each side starts there (see [`crossing`]), and each refit starts from the other
 /// variables' values at the nearest value probed before (a failing one that stopped at its
-/// iteration limit also from the optimum's).
+/// iteration limit also from the optimum's), moved by `slope` (the others' first-order change
+/// per unit of variable k, in solver space; empty = none) to where the quadratic model of the
+/// cost puts their minimum.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn profile_range(
     p: &BrdfProblem,
     x: &[f64],
@@ -302,6 +316,7 @@ pub(super) fn profile_range(
     k: usize,
     du: f64,
     rise: f64,
+    slope: &[f64],
     opts: &FitOptions,
 ) -> Option<(f64, f64)> {
     let t = p.transforms[k];
@@ -327,6 +342,22 @@ pub(super) fn profile_range(
     let limit = rise * c0;
     let mut rest = x.to_vec();
     rest.remove(k);
+    // A start for the refit at u from the others' values `w` found at `from`: moved along
+    // `slope`, kept inside their bounds.
+    let predicted = |w: &[f64], from: f64, u: f64| -> Vec<f64> {
+        w.iter()
+            .enumerate()
+            .map(|(j, &v)| {
+                let (lo, hi) = p.transforms[if j < k { j } else { j + 1 }].bounds();
+                let moved = v + slope.get(j).copied().unwrap_or(0.0) * (u - from);
+                if moved.is_finite() {
+                    moved.clamp(lo, hi)
+                } else {
+                    v
+                }
+            })
+            .collect()
+    };
     // Cost with variable k held at u, the rest refitted from `warm`, and where they ended. A
     // refit above the limit that stopped at its iteration limit (not by a convergence test)
     // is made again from the optimum, and the lower kept: a warm start from a distant probe
@@ -334,24 +365,31 @@ pub(super) fn profile_range(
     // on every fit of the bundled files that second refit opened or closed no range and moved
     // no end by more than 2e-4 of its value, and it took GGX–Smith-2's statistics on MERL
     // alumina-oxide from 0.84 to 1.27 ms.)
+    // (`warm` carries, last, the value of variable k it was found at.)
     let held = |u: f64, warm: &[f64]| -> (f64, Vec<f64>) {
         let q = held_problem(u);
-        let refit = |from: &[f64]| {
-            let s = lsq::levenberg_marquardt(&q, from, Robust::None, &limits);
+        let refit = |w: &[f64], from: f64| {
+            let start = predicted(w, from, u);
+            let s = lsq::levenberg_marquardt(&q, &start, Robust::None, &limits);
             let c = if s.cost.is_finite() {
                 s.cost
             } else {
                 f64::INFINITY
             };
-            (c, s.x, s.converged)
+            let mut end = s.x;
+            end.push(u);
+            (c, end, s.converged)
         };
-        let (c, x, converged) = refit(warm);
-        if c <= limit || converged || warm == rest.as_slice() {
-            return (c, x);
+        let (w, from) = warm.split_at(warm.len() - 1);
+        let (c, end, converged) = refit(w, from[0]);
+        if c <= limit || converged || w == rest.as_slice() {
+            return (c, end);
         }
-        let (cc, cx, _) = refit(&rest);
-        if cc < c { (cc, cx) } else { (c, x) }
+        let (cc, cend, _) = refit(&rest, x[k]);
+        if cc < c { (cc, cend) } else { (c, end) }
     };
+    let mut warm0 = rest.clone();
+    warm0.push(x[k]);
     // The subsample's own minimum, where the profiled cost bottoms out: the walk's steps are
     // placed from it.
     let (uc, cc) = centre
@@ -361,13 +399,23 @@ pub(super) fn profile_range(
     let side = |dir: f64| {
         let edge = if dir > 0.0 { uhi } else { ulo };
         let vertex = ((uc - x[k]) * dir, cc);
-        crossing(&held, x[k], &rest, c0, limit, dir, du, edge, vertex).0
+        crossing(&held, x[k], &warm0, c0, limit, dir, du, edge, vertex).0
     };
     let (lo, hi) = rayon::join(|| side(-1.0), || side(1.0));
     let lo = lo.map_or(f64::NEG_INFINITY, |u| t.apply(u).0);
     let hi = hi.map_or(f64::INFINITY, |u| t.apply(u).0);
     Some((lo, hi))
 }
+
+/// The first probe of a side goes this far beyond the quadratic model's crossing, so that
+/// where that model holds it lands just outside.
+const FIRST_STEP: f64 = 1.005;
+
+/// A first probe whose profiled cost exceeds the limit by at most this share of the rise
+/// (limit − minimum) ends its side: on a quadratic profile it is then at most √1.02 − 1 <
+/// 1 % of the distance outside the crossing, the bracket's resolution, and one probe a side
+/// is all a near-quadratic profile costs.
+const QUADRATIC_EXCESS: f64 = 0.02;
 
 /// Probes of one side of a profile at most (the walk grows its step at least 1.1× a probe, so
 /// only an unbounded variable whose cost never rises reaches this; that side is then open).
@@ -378,8 +426,9 @@ const MAX_PROBES: usize = 60;
 /// does not exceed it (the range is open on that side); with the number of probes. `held(u,
 /// warm)` is the profiled cost at u, refitted from `warm`, and where the other variables end.
 ///
-/// The walk starts at the predicted distance `du` (the quadratic model's, 0.05 where it is
-/// not finite or not positive); while a probe fits, the next goes where c(d) = cv + a (d −
+/// The walk starts just beyond the predicted distance `du` (the quadratic model's, times
+/// [`FIRST_STEP`]; 0.05 where it is not finite or not positive), and a first probe that fails
+/// by at most [`QUADRATIC_EXCESS`] of the rise is the end; while a probe fits, the next goes where c(d) = cv + a (d −
 /// dv)² through it reaches the limit (1 % beyond, at least 1.1× and at most 10× the
 /// distance), (dv, cv) = `vertex` being where the profiled cost bottoms out: (0, c0) when the
 /// walk starts at the minimum, else (a subsample's profile measured from the full data's
@@ -407,12 +456,21 @@ pub(super) fn crossing(
     let mut probes = 0;
     // The last fitting probe: distance, cost, the other variables there.
     let (mut a, mut ca, mut wa) = (0.0, c0, warm0.to_vec());
-    let mut d = if du.is_finite() && du > 0.0 { du } else { 0.05 };
+    let mut d = if du.is_finite() && du > 0.0 {
+        FIRST_STEP * du
+    } else {
+        0.05
+    };
     let (mut b, mut cb, mut wb) = loop {
         d = d.min(reach);
         let (c, w) = held(at(d), &wa);
         probes += 1;
         if !(c <= limit) {
+            // A first probe that fails by at most QUADRATIC_EXCESS of the rise is within 1 %
+            // outside the crossing on a quadratic profile: it is the end.
+            if probes == 1 && dv == 0.0 && c - cv <= (1.0 + QUADRATIC_EXCESS) * (limit - cv) {
+                return (Some(at(d)), probes);
+            }
             break (d, c, w);
         }
         if d >= reach || probes >= MAX_PROBES {
@@ -487,15 +545,16 @@ mod tests {
 
     /// A quadratic profile c(u) = c0 (1 + (u − u0)²/s²) rises by 1 % at u0 ± s/10 exactly:
     /// each side returns a failing value at most 1 % of the distance beyond it, from the
-    /// predicted step (exact here) in a few probes, and from a poor prediction (100× too
-    /// short or too long, or none) in a few more.
+    /// predicted step (exact here) in one probe, and from a poor prediction (100× too short
+    /// or too long, or none) in a few more.
     #[test]
     fn quadratic_profile_crosses_at_the_hand_worked_value() {
         let (u0, s, c0) = (0.7, 0.4, 3.0);
         let f = probe(move |u: f64| c0 * (1.0 + (u - u0).powi(2) / (s * s)));
         let exact = s / 10.0;
         for (du, most) in [
-            (exact, 4),
+            (exact, 1),
+            (exact * 0.99, 4),
             (exact / 100.0, 12),
             (exact * 100.0, 14),
             (f64::NAN, 12),
@@ -609,7 +668,8 @@ mod tests {
         let delta = pi * 0.0125f64.sqrt();
         assert!((delta - 0.351_240).abs() < 1e-6);
         for du in [delta, 0.05, f64::NAN] {
-            let (lo, hi) = profile_range(&p, &x, None, 0, du, 1.01, &opts).expect("a finite cost");
+            let (lo, hi) =
+                profile_range(&p, &x, None, 0, du, 1.01, &[], &opts).expect("a finite cost");
             // (An end may be the crossing itself, whose cost rounds above the limit.)
             let (dlo, dhi) = (2.5 * pi - lo, hi - 2.5 * pi);
             assert!(dlo >= delta * (1.0 - 1e-9) && dlo <= 1.0101 * delta, "{lo}");

@@ -79,6 +79,9 @@ pub fn speed_accuracy_with_progress(
         o.dist = dist;
         o.method = method;
         o.profile = false;
+        // The solvers are compared on the least-squares problem, as scipy solves it: the
+        // energy constraint's second solve is no solver's work.
+        o.conserve = false;
         // A swarm runs once, from the start: the grid's candidates would each cost it its
         // whole budget again.
         o.local_only = runs_once(method);

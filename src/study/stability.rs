@@ -192,6 +192,9 @@ fn stability_runs(
                     o.local_only = !global;
                     o.start = start.cloned().unwrap_or_default();
                     o.profile = false;
+                    // The solvers are compared on the least-squares problem, as scipy solves it: the
+                    // energy constraint's second solve is no solver's work.
+                    o.conserve = false;
                     match fit::fit(&ds, &o) {
                         Ok(f) if f[0].cost.is_finite() => {
                             let f = &f[0];
