@@ -27,7 +27,7 @@ LAYERS = [
     {"simulate", "fit", "prior"},
     {"export", "plot", "render"},
     {"scene"},
-    {"choose", "study", "inverse"},
+    {"choose", "study", "inverse", "plan"},
     {"report"},
 ]
 

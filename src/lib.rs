@@ -46,6 +46,7 @@ pub mod export;
 pub mod fit;
 pub mod inverse;
 pub mod model;
+pub mod plan;
 pub mod plot;
 pub mod prior;
 pub mod render;

@@ -25,6 +25,9 @@ pub enum Grid {
     /// The cell centres of a MERL 90 × 90 × 180 table (Matusik et al. 2003; see
     /// [`crate::data::merl`]) whose light and eye are both above the horizon, in cell order.
     Merl,
+    /// Configurations listed by a file (θi, φi, θo, φo in radians), in its order: a plan of
+    /// `brdfit plan`, or any brdfit CSV's angle columns.
+    Listed(Vec<[f64; 4]>),
 }
 
 /// Most samples `hemisphere:N` draws: 1,000,000 (about 0.1 GB of memory and an 80 MB CSV,
@@ -114,6 +117,7 @@ impl Grid {
                 .map(crate::data::merl::cell_center)
                 .filter(|a| a[0] < 0.5 * PI && a[2] < 0.5 * PI)
                 .collect(),
+            Grid::Listed(v) => v.clone(),
         }
     }
 }

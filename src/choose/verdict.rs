@@ -409,7 +409,8 @@ pub fn verdict(
             Verdict::Undetermined,
             format!(
                 "the reference is not determined: {why}{beyond}; the closest model, {} at {:.3}, \
-                 cannot be judged below that",
+                 cannot be judged below that; `brdfit plan DATA --scene SCENE --budget 100 -o \
+                 plan.csv` names the configurations to measure next",
                 closest.0, closest.1
             ),
         );

@@ -106,7 +106,8 @@ pub(crate) struct SimulateArgs {
     pub(crate) symmetric: bool,
     /// Sampling: hemisphere:N (N seeded random directions), plane:θ1,θ2,… (degrees),
     /// goniometer (θi 10–80° step 10, θo 0–85° step 1, φo every 15°) or merl (the cells of a
-    /// 90×90×180 MERL table; write it with an output ending in .binary).
+    /// 90×90×180 MERL table; write it with an output ending in .binary), or a CSV file whose
+    /// angle columns list the configurations (a plan of `brdfit plan`).
     #[arg(long, default_value = "hemisphere:10000")]
     pub(crate) grid: String,
     /// Relative noise σ: each value is multiplied by (1 + σ ε), ε ~ N(0, 1).
@@ -122,7 +123,15 @@ pub(crate) struct SimulateArgs {
 
 /// `brdfit simulate` (see its help).
 pub(crate) fn run_simulate(args: SimulateArgs) -> Result<()> {
-    let g = Grid::parse(&args.grid).map_err(|e| anyhow!("--grid {e}"))?;
+    // A file's configurations (a plan), else a named grid.
+    let listed = Path::new(&args.grid);
+    let g = if listed.is_file() || args.grid.ends_with(".csv") {
+        refuse_input(&args.output, &[listed])?;
+        let d = data::load_directions(listed)?;
+        Grid::Listed((0..d.len()).map(|k| d.angles(k)).collect())
+    } else {
+        Grid::parse(&args.grid).map_err(|e| anyhow!("--grid {e}"))?
+    };
     let grid = &args.grid;
     let (noise, seed) = (args.noise, args.seed);
     if !(noise.is_finite() && noise >= 0.0) {

@@ -6,6 +6,7 @@ mod choose;
 mod fit;
 mod inverse;
 mod io;
+mod plan;
 mod plot;
 mod prior;
 mod render;
@@ -17,6 +18,7 @@ pub(crate) use choose::*;
 pub(crate) use fit::*;
 pub(crate) use inverse::*;
 pub(crate) use io::*;
+pub(crate) use plan::*;
 pub(crate) use plot::*;
 pub(crate) use prior::*;
 pub(crate) use render::*;
@@ -266,6 +268,12 @@ pub(crate) enum Command {
     /// Priors: what real materials are like (principal components of measured materials).
     #[command(subcommand)]
     Prior(PriorCmd),
+    /// Where to measure next: the configurations that would most reduce what a scene's
+    /// pixels leave uncertain under the prior, best first.
+    #[command(
+        after_help = "Examples:\n  brdfit plan data/merl-alumina-oxide.csv --scene fig7 --budget 100 -o plan.csv\n  brdfit plan --budget 20 -o first.csv"
+    )]
+    Plan(PlanArgs),
     /// Render a scene (TOML) with Whitted's ray tracer, or Blinn's Figure 7 with `fig7`.
     #[command(
         after_help = "Examples:\n  brdfit render data/scenes/mitsuba-front.toml -o out.png\n  brdfit render fig7 --aluminium al.json --mgo mgo.json -o reports/fig7"
@@ -383,6 +391,7 @@ pub(crate) fn run(cli: Cli) -> Result<()> {
         Command::Plot(cmd) => run_plot(cmd),
         Command::Study(cmd) => run_study(cmd),
         Command::Prior(cmd) => run_prior(cmd),
+        Command::Plan(args) => run_plan(args),
         Command::Convert(args) => run_convert(args),
     }
 }

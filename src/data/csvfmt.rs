@@ -8,7 +8,8 @@
 //! Angle columns: `theta_i`, `phi_i`, `theta_o`, `phi_o`, each with `_deg` or `_rad`.
 //! Value columns: `brdf` (f_r), `brdf_cos` (f_r cosθi) or `rfactor` (π f_r), optionally with a
 //! channel suffix `_r`, `_g`, `_b`, `_y` or `_<λ>nm`. An optional `weight` column. An empty
-//! value field marks a missing value.
+//! value field marks a missing value. The columns `plan_rank` and `plan_share` (written by
+//! `brdfit plan`) are read past.
 
 use super::{DataError, Dataset, NegativePolicy, Quantity, RowSink, io_error, open, parse_number};
 use crate::support::output::{write_atomic, write_error};
@@ -226,6 +227,9 @@ fn parse_header(
             }
             angle_seen[k] = true;
             cols.push(Col::Angle(k, factor));
+        } else if name == "plan_rank" || name == "plan_share" {
+            // Written by `brdfit plan` beside the angles.
+            cols.push(Col::Ignored);
         } else if name == "weight" {
             cols.push(if values { Col::Weight } else { Col::Ignored });
         } else if let Some((q, suffix)) = parse_value_column(&name) {

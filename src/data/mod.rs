@@ -286,6 +286,85 @@ impl Dataset {
             .count()
     }
 
+    /// Several measurements of one material as one dataset (`sets` in order, each converted to
+    /// f_r): the channels must be the same (names, in order); samples at the same angles (to
+    /// 1e-9 rad) are averaged, channel by channel over the values present, the average
+    /// weighing as the sum of their weights (1 each where a file gives none). The error
+    /// names the files whose channels differ.
+    pub fn merge(sets: &[Dataset]) -> Result<Dataset, String> {
+        let Some(first) = sets.first() else {
+            return Err("no data to merge".into());
+        };
+        let names =
+            |d: &Dataset| -> Vec<String> { d.channels.iter().map(|c| c.name.clone()).collect() };
+        for d in &sets[1..] {
+            if names(d) != names(first) {
+                return Err(format!(
+                    "{} has the channels [{}] and {} has [{}]: merged files need the same \
+                     channels; select one with --channel",
+                    first.meta.source,
+                    names(first).join(", "),
+                    d.meta.source,
+                    names(d).join(", ")
+                ));
+            }
+        }
+        let key = |a: [f64; 4]| a.map(|x| (x * 1e9).round() as i64);
+        let nch = first.channels.len();
+        // Per distinct configuration: angles, Σ w·value and Σ w per channel, Σ w.
+        let mut index = std::collections::HashMap::new();
+        type Sums = ([f64; 4], Vec<(f64, f64)>, f64);
+        let mut rows: Vec<Sums> = Vec::new();
+        let mut weighted = false;
+        for d in sets {
+            let d = d.clone().into_brdf();
+            weighted |= d.weights.is_some();
+            for k in 0..d.len() {
+                let a = d.angles(k);
+                let w = d.weights.as_ref().map_or(1.0, |w| w[k]);
+                let i = *index.entry(key(a)).or_insert_with(|| {
+                    rows.push((a, vec![(0.0, 0.0); nch], 0.0));
+                    rows.len() - 1
+                });
+                for c in 0..nch {
+                    let v = d.channels[c].values[k];
+                    if v.is_finite() {
+                        rows[i].1[c].0 += w * v;
+                        rows[i].1[c].1 += w;
+                    }
+                }
+                rows[i].2 += w;
+            }
+        }
+        let channels = first
+            .channels
+            .iter()
+            .map(|c| (c.name.clone(), c.wavelength_nm))
+            .collect();
+        let mut out = Dataset::new(Quantity::Brdf, channels);
+        let mut weights = Vec::with_capacity(rows.len());
+        let mut merged = false;
+        for (a, sums, w) in &rows {
+            let v: Vec<f64> = sums
+                .iter()
+                .map(|&(s, n)| if n > 0.0 { s / n } else { f64::NAN })
+                .collect();
+            out.push(*a, &v);
+            merged |= *w != 1.0;
+            weights.push(*w);
+        }
+        if weighted || merged {
+            out.weights = Some(weights);
+        }
+        out.meta = first.meta.clone();
+        out.meta.source = sets
+            .iter()
+            .map(|d| d.meta.source.as_str())
+            .collect::<Vec<_>>()
+            .join(" + ");
+        Ok(out)
+    }
+
     /// Reduce to one channel as `select` says (by name, index, wavelength, or CIE Y).
     pub fn select(&self, select: &ChannelSelect) -> Result<Dataset, String> {
         let values: Vec<f64>;

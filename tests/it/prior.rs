@@ -12,7 +12,7 @@ use brdfit::simulate::{Grid, simulate_nbrdf};
 use std::sync::Arc;
 
 /// The five MERL networks of the reference study.
-const MATERIALS: [&str; 5] = [
+pub(crate) const MATERIALS: [&str; 5] = [
     "blue-acrylic",
     "steel",
     "white-paint",
@@ -20,17 +20,17 @@ const MATERIALS: [&str; 5] = [
     "alumina-oxide",
 ];
 
-fn all_nets() -> Vec<Nbrdf> {
+pub(crate) fn all_nets() -> Vec<Nbrdf> {
     nbrdf::load_all(&crate::common::root().join("data/nbrdf_weights.json")).unwrap()
 }
 
-fn net<'a>(nets: &'a [Nbrdf], name: &str) -> &'a Nbrdf {
+pub(crate) fn net<'a>(nets: &'a [Nbrdf], name: &str) -> &'a Nbrdf {
     nets.iter()
         .find(|n| n.name == name || n.name == format!("merl/{name}"))
         .unwrap()
 }
 
-fn sampled(net: &Nbrdf, grid: Grid) -> Dataset {
+pub(crate) fn sampled(net: &Nbrdf, grid: Grid) -> Dataset {
     simulate_nbrdf(net, &grid.directions(0), true)
         .select(&ChannelSelect::parse("g"))
         .unwrap()
@@ -45,7 +45,7 @@ fn fill(ds: &Dataset) -> Model {
 
 /// The prior of the MERL networks without the five materials of the reference study (built
 /// once for the tests of this module).
-fn prior_without_five() -> Arc<Prior> {
+pub(crate) fn prior_without_five() -> Arc<Prior> {
     static PRIOR: std::sync::OnceLock<Arc<Prior>> = std::sync::OnceLock::new();
     PRIOR
         .get_or_init(|| {
