@@ -31,6 +31,7 @@ mod physical_choose;
 mod pixel_refit;
 mod plots;
 mod prior;
+mod recommend;
 mod reference;
 mod render;
 mod render_aa;
