@@ -13,6 +13,7 @@ mod common;
 mod conserve;
 mod corners;
 mod corpus;
+mod dependent;
 mod export;
 mod fit;
 mod fit_models;
