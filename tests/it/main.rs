@@ -32,6 +32,7 @@ mod physical_choose;
 mod pixel_refit;
 mod plots;
 mod prior;
+mod readme;
 mod recommend;
 mod reference;
 mod render;
