@@ -205,8 +205,10 @@ fn draw_tiles(
 }
 
 /// The sheet's drawing area on `buf`.
-type Sheet<'a> =
-    plotters::prelude::DrawingArea<plotters::prelude::BitMapBackend<'a>, plotters::coord::Shift>;
+type Sheet<'a> = plotters::prelude::DrawingArea<
+    crate::support::glyphs::OwnText<plotters::prelude::BitMapBackend<'a>>,
+    plotters::coord::Shift,
+>;
 
 /// A drawing error as an error of the sheet.
 fn drawn<E: std::fmt::Debug>(r: Result<(), E>) -> anyhow::Result<()> {
@@ -231,10 +233,9 @@ fn draw_labels(
     th: &ThresholdJson,
     scale: f64,
 ) -> anyhow::Result<()> {
-    use plotters::prelude::*;
     crate::plot::register_font_once();
     let (gap, reason_y) = (layout.gap, layout.reason_y);
-    let root = BitMapBackend::with_buffer(buf, (layout.w, layout.h)).into_drawing_area();
+    let root = crate::support::glyphs::bitmap_area(buf, (layout.w, layout.h));
     for (i, line) in layout.title.iter().enumerate() {
         text(&root, line.clone(), gap, 12 + 24 * i as u32, 20.0)?;
     }

@@ -16,6 +16,7 @@ mod slice;
 mod svg;
 mod xy;
 
+pub use crate::support::glyphs::{OwnText, bitmap_area};
 pub use crate::support::png::{encode_png, register_font_once};
 pub use albedo::{ALBEDO_AGREEMENT, ALBEDO_CELLS, albedo, albedo_chart, measured_albedo};
 pub use labels::{log_tick, needs_leader, place_label, tick};
@@ -60,7 +61,7 @@ pub fn save(chart: &impl Chart, base: &Path) -> Result<(PathBuf, PathBuf)> {
     }
     let mut px = vec![0u8; (w * h * 3) as usize];
     {
-        let root = BitMapBackend::with_buffer(&mut px, (w, h)).into_drawing_area();
+        let root = bitmap_area(&mut px, (w, h));
         chart.draw(&root)?;
         root.present().map_err(err)?;
     }

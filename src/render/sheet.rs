@@ -148,7 +148,7 @@ pub fn contact_sheet(images: &[(String, Image)]) -> anyhow::Result<Vec<u8>> {
     }
     {
         crate::support::png::register_font_once();
-        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        let root = crate::support::glyphs::bitmap_area(&mut buf, (w, h));
         let font = ("sans-serif", 16).into_font();
         let t = |s: &str, x: u32, y: u32, size: f64| {
             root.draw(&Text::new(

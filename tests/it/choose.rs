@@ -217,7 +217,7 @@ fn flip_matches_nvidia_flip_evaluator() {
     assert_eq!(n, 3);
 }
 
-fn choose_file(file: &str) -> brdfit::choose::ChooseResult {
+pub(crate) fn choose_file(file: &str) -> brdfit::choose::ChooseResult {
     let ds = crate::common::load(file);
     let ds = brdfit::data::representative_channel(&ds).unwrap().0;
     choose::choose(&ds, &fig7_cases(512), &ChooseOptions::default(), &|_| {})
@@ -225,7 +225,7 @@ fn choose_file(file: &str) -> brdfit::choose::ChooseResult {
         .0
 }
 
-fn chosen(r: &brdfit::choose::ChooseResult, case: &str) -> (Option<String>, String) {
+pub(crate) fn chosen(r: &brdfit::choose::ChooseResult, case: &str) -> (Option<String>, String) {
     let c = r.cases.iter().find(|c| c.case == case).unwrap();
     (c.chosen.clone(), c.closest.clone())
 }
@@ -247,6 +247,15 @@ fn blinn_mgo_front_needs_phong_edge_needs_torrance_sparrow() {
             .is_some_and(|m| m.starts_with("torrance-sparrow")),
         "edge: {edge:?}"
     );
+    // The README states these verdicts.
+    for (case, got) in [("front", &front), ("edge", &edge)] {
+        let named = crate::readme::verdict_name(got.clone());
+        assert_eq!(
+            named,
+            crate::readme::readme_verdict("blinn-mgo", case),
+            "{case}"
+        );
+    }
     // Phong and Blinn–Phong are over the threshold edge lit.
     let e = r.cases.iter().find(|c| c.case == "edge").unwrap();
     for m in e.models.iter().filter(|m| m.model.contains("phong")) {
@@ -305,6 +314,15 @@ fn merl_alumina_oxide_choices() {
         .contains(&closest.as_str()),
         "{closest}"
     );
+    // The README states these verdicts.
+    for case in ["front", "edge"] {
+        let named = crate::readme::verdict_name(chosen(&r, case).0);
+        assert_eq!(
+            named,
+            crate::readme::readme_verdict("merl-alumina-oxide", case),
+            "{case}"
+        );
+    }
 }
 
 /// `choose.json` has the documented keys, `metric` names an error key of the rows, and the
