@@ -35,6 +35,7 @@ mod reference;
 mod render;
 mod render_aa;
 mod report;
+mod residuals;
 mod rgl;
 mod robustness;
 mod scene_mutations;
