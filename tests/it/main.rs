@@ -13,6 +13,7 @@ mod common;
 mod conserve;
 mod corners;
 mod corpus;
+mod eval_fit;
 mod export;
 mod fit;
 mod fit_models;
