@@ -67,7 +67,9 @@ pub use options::{FitError, FitOptions, RESOLUTION, RobustKind, Weighting};
 pub use problem::Loss;
 pub use progress::{TICK, Watch, ticking, with_count};
 pub use quantile::t_quantile;
-pub use residuals::{Residual, residual_definition, residuals, write_residuals_csv};
+pub use residuals::{
+    Residual, check_fitted_to, residual_definition, residuals, write_residuals_csv,
+};
 pub use result::{FitResult, KKT_TOLERANCE, SAME_MINIMUM, Verification, fits_json};
 pub use run::{fit, fit_timed};
 pub use setup::solid_angle_weights;

@@ -23,6 +23,7 @@ mod ggx2;
 mod intervals;
 mod inverse;
 mod loaders;
+mod lobe_overlay;
 mod model_props;
 mod mutation;
 mod nbrdf;
