@@ -20,6 +20,7 @@
 //! edge lit, it is not (Blinn 1977, §"Comparison of the models").
 
 mod chart;
+mod colour;
 mod files;
 mod fitting;
 mod judge;
@@ -36,6 +37,7 @@ use crate::render::{Image, Scene};
 use crate::render::{Lighting, fig7_scene};
 use glam::DVec3;
 
+pub use colour::{colour_reference, rgb_channels};
 pub use files::write;
 pub use fitting::{MAX_FINE_CONFIGURATIONS, PIXEL_STALL, exposure, refit_on_pixels, scene_samples};
 pub use markdown::{case_table, markdown};

@@ -109,6 +109,10 @@ pub(crate) struct FitArgs {
     /// Write the fit(s) as JSON to this file.
     #[arg(long, value_name = "FILE")]
     pub(crate) json: Option<PathBuf>,
+    /// Write every sample each fit used to this CSV: its angles, channel, measured and model
+    /// f_r, residual in the fit's loss and weight (with a `model` column for several models).
+    #[arg(long, value_name = "FILE")]
+    pub(crate) residuals: Option<PathBuf>,
 }
 
 #[derive(Args, Debug, Clone)]

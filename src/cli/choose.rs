@@ -103,7 +103,16 @@ pub(crate) fn run_choose(a: ChooseArgs) -> Result<()> {
             a.output.with_extension("").display()
         );
     }
-    let ds = study_input(&a.data, &a.load)?;
+    // The channel judged: --channel, else the representative one (green of RGB data).
+    let full = a.load.load(&a.data)?;
+    let ds = match a.load.channel {
+        Some(_) => full.clone(),
+        None => {
+            data::representative_channel(&full)
+                .map_err(|m| anyhow!("{m}"))?
+                .0
+        }
+    };
     let cases = if a.scene == "fig7" {
         choose::fig7_cases(a.res)
     } else {
@@ -151,6 +160,19 @@ pub(crate) fn run_choose(a: ChooseArgs) -> Result<()> {
     let written = choose::write(&a.output, &result, &images)?;
     print(&choose::markdown(&result))?;
     wrote_all(&written);
+    // RGB data: the reference in colour beside the judged channel's grey images.
+    if a.load.channel.is_none() && choose::rgb_channels(&full).is_some() {
+        for case in &cases {
+            if let Some(img) = choose::colour_reference(&full, case) {
+                let png = brdfit::plot::encode_png(
+                    img.width,
+                    img.height,
+                    &brdfit::render::to_srgb8(&img),
+                )?;
+                write_file(&a.output.join(&case.name).join("measured-colour.png"), &png)?;
+            }
+        }
+    }
     if !quiet {
         eprintln!("done in {:.1} s", t.elapsed().as_secs_f64());
     }

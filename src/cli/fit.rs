@@ -59,14 +59,15 @@ pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
     use rayon::prelude::*;
     // An output that is an input is refused before any fit is run or printed.
     let inputs: Vec<&Path> = a.files.iter().map(PathBuf::as_path).collect();
-    for out in [&a.json, &a.summary].into_iter().flatten() {
+    for out in [&a.json, &a.summary, &a.residuals].into_iter().flatten() {
         refuse_input(out, &inputs)?;
     }
+    check_residuals_target(a)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.jobs as usize)
         .build()
         .map_err(|e| anyhow!("cannot start {} jobs: {e}", a.jobs))?;
-    let results: Vec<Result<(String, Vec<brdfit::fit::FitResult>)>> = if a.files.len() == 1 {
+    let results: Vec<Result<Fitted>> = if a.files.len() == 1 {
         vec![fit_one(a, load, &a.files[0])]
     } else {
         let bar = progress_bar(a.files.len() as u64, "files");
@@ -87,11 +88,14 @@ pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
     let mut first_err = None;
     for (f, r) in a.files.iter().zip(results) {
         match r {
-            Ok((text, fits)) => {
+            Ok((text, fits, residuals)) => {
                 if a.files.len() > 1 {
                     print(&format!("== {}\n", f.display()))?;
                 }
                 print(&text)?;
+                if let (Some(path), Some(csv)) = (&a.residuals, residuals) {
+                    write_file(path, csv.as_bytes())?;
+                }
                 all.push((f.clone(), fits));
             }
             Err(e) => {
@@ -293,12 +297,73 @@ fn summary_recommended(fits: &[brdfit::FitResult]) -> Vec<bool> {
 /// Samples from which a single file's fits show a progress bar on a terminal.
 const BAR_SAMPLES: usize = 100_000;
 
-/// Fit one file as the flags say: the terminal text and the fits.
-pub(crate) fn fit_one(
-    a: &FitArgs,
-    load: &LoadArgs,
+/// One file fitted: the terminal text, the fits and (with `--residuals`) the residuals' CSV.
+type Fitted = (String, Vec<brdfit::fit::FitResult>, Option<String>);
+
+/// `--residuals` takes one data file and an output no other output names, checked before any
+/// fit.
+fn check_residuals_target(a: &FitArgs) -> Result<()> {
+    let Some(r) = &a.residuals else {
+        return Ok(());
+    };
+    if a.files.len() > 1 {
+        bail!(
+            "--residuals {}: {} data files given; the residuals are written for one\n  fix: fit each file on its own with --residuals",
+            r.display(),
+            a.files.len()
+        );
+    }
+    for (flag, other) in [("--json", &a.json), ("--summary", &a.summary)] {
+        if other.as_ref().is_some_and(|o| o == r || same_file(o, r)) {
+            bail!(
+                "--residuals {} is also the {flag} output\n  fix: give the residuals another file name",
+                r.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The CSV of `--residuals`: every sample each fit of `fits` used (see
+/// [`brdfit::fit::residuals`]).
+fn residuals_csv(
     file: &Path,
-) -> Result<(String, Vec<brdfit::fit::FitResult>)> {
+    ds: &brdfit::data::Dataset,
+    fits: &[brdfit::fit::FitResult],
+    max_theta: Option<f64>,
+) -> Result<String> {
+    let mut rows = Vec::with_capacity(fits.len());
+    for f in fits {
+        let r = brdfit::fit::residuals(ds, f, max_theta)
+            .map_err(|e| anyhow!("{}: {}: {e}", file.display(), f.label()))?;
+        rows.push((f.label(), r));
+    }
+    let mut losses: Vec<brdfit::fit::Loss> = Vec::new();
+    for f in fits {
+        if !losses.contains(&f.loss) {
+            losses.push(f.loss);
+        }
+    }
+    let mut comments = vec![format!(
+        "residuals of brdfit fit {}: one row per sample and channel each fit used",
+        file.display()
+    )];
+    comments.extend(
+        losses
+            .iter()
+            .map(|l| brdfit::fit::residual_definition(*l).to_string()),
+    );
+    comments.push(
+        "angles in degrees; brdf in 1/sr; each fit's cost = 1/2 sum(weight residual^2)".into(),
+    );
+    let models = fits.iter().any(|f| f.label() != fits[0].label());
+    let mut buf = Vec::new();
+    brdfit::fit::write_residuals_csv(&mut buf, &comments, &rows, models)?;
+    Ok(String::from_utf8(buf)?)
+}
+
+/// Fit one file as the flags say: the terminal text, the fits and the residuals asked for.
+pub(crate) fn fit_one(a: &FitArgs, load: &LoadArgs, file: &Path) -> Result<Fitted> {
     use brdfit::fit::{self, FitOptions};
     let t = std::time::Instant::now();
     let ds = load.load(file)?;
@@ -414,7 +479,12 @@ pub(crate) fn fit_one(
             }
         }
     }
-    Ok((text, all.into_iter().flatten().collect()))
+    let fits: Vec<brdfit::fit::FitResult> = all.into_iter().flatten().collect();
+    let residuals = match &a.residuals {
+        Some(_) => Some(residuals_csv(file, &ds, &fits, a.max_theta)?),
+        None => None,
+    };
+    Ok((text, fits, residuals))
 }
 
 /// What a fit file holds, e.g. `fits.json holds 7 models of channel y; consumers (export,

@@ -6,13 +6,34 @@ use brdfit::data::{self, Dataset, Format, Quantity};
 use brdfit::model::{Geometry, Model};
 use brdfit::simulate::{Grid, simulate};
 use clap::Args;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `brdfit eval`.
 #[derive(Args, Debug)]
 pub(crate) struct EvalArgs {
-    #[command(flatten)]
-    pub(crate) model: ModelArgs,
+    /// Model (with --set), or with --fit the fit file's model to take.
+    #[arg(long, value_enum, required_unless_present = "fit")]
+    pub(crate) model: Option<brdfit::ModelKind>,
+    /// Facet distribution of models that take one (torrance-sparrow): d1, d2, d3 (default),
+    /// abc; with --fit, the fit's.
+    #[arg(long, value_enum)]
+    pub(crate) distribution: Option<brdfit::Distribution>,
+    /// Parameter values NAME=VALUE (repeat or separate with commas), e.g. n=1.8,c3=0.35,ps=0.667,pd=0.333.
+    #[arg(long = "set", value_delimiter = ',', conflicts_with = "fit")]
+    pub(crate) set: Vec<String>,
+    /// Phong only: use the fast power approximation (1 − βλ)^γ with γ = 2^K.
+    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(0..=30))]
+    pub(crate) fast_pow: Option<u32>,
+    /// A fit JSON (brdfit fit --json) whose fitted model is evaluated; a file of several fits
+    /// needs --model (and --distribution) and --channel to name one.
+    #[arg(long, value_name = "FIT.json")]
+    pub(crate) fit: Option<PathBuf>,
+    /// With --fit: the channel whose fit is evaluated.
+    #[arg(long, requires = "fit")]
+    pub(crate) channel: Option<String>,
+    /// With --fit: evaluate a fit marked not usable anyway.
+    #[arg(long, requires = "fit")]
+    pub(crate) allow_unusable: bool,
     /// CSV whose theta_i/phi_i/theta_o/phi_o columns (with _deg or _rad) give the directions.
     pub(crate) directions: PathBuf,
     /// Output CSV (standard output when omitted).
@@ -24,13 +45,49 @@ pub(crate) struct EvalArgs {
 pub(crate) fn run_eval(args: EvalArgs) -> Result<()> {
     let EvalArgs {
         model,
+        distribution,
+        set,
+        fast_pow,
+        fit,
+        channel,
+        allow_unusable,
         directions,
         output,
     } = args;
     if let Some(p) = &output {
-        refuse_input(p, &[&directions])?;
+        let mut inputs = vec![directions.as_path()];
+        inputs.extend(fit.as_deref());
+        refuse_input(p, &inputs)?;
     }
-    let m = model.build()?;
+    let (m, from) = match &fit {
+        Some(path) => {
+            let want = brdfit::fit::Want {
+                model,
+                dist: distribution,
+                channel,
+                allow_unusable,
+            };
+            let p = pick_for_eval(path, &want)?;
+            let mut m = p.model;
+            m.fast_pow = fast_pow;
+            let channel = if brdfit::fit::is_unnamed_channel(&p.channel) {
+                String::new()
+            } else {
+                format!(", channel {}", p.channel)
+            };
+            (m, format!(" (from {}{channel})", path.display()))
+        }
+        None => {
+            let m = ModelArgs {
+                model: model.expect("clap requires --model without --fit"),
+                distribution: distribution.unwrap_or_default(),
+                set,
+                fast_pow,
+            }
+            .build()?;
+            (m, String::new())
+        }
+    };
     let dirs = data::load_directions(&directions)?;
     let mut out = Dataset::new(Quantity::Brdf, vec![(String::new(), None)]);
     for k in 0..dirs.len() {
@@ -38,7 +95,7 @@ pub(crate) fn run_eval(args: EvalArgs) -> Result<()> {
         out.push(a, &[m.brdf(&Geometry::from_angles(a[0], a[1], a[2], a[3]))]);
     }
     refuse_overflow(&out, &m)?;
-    out.meta.comments = vec![format!("brdfit eval: {m}")];
+    out.meta.comments = vec![format!("brdfit eval: {m}{from}")];
     match output {
         Some(p) => {
             data::write_csv(&out, &p)?;
@@ -51,6 +108,75 @@ pub(crate) fn run_eval(args: EvalArgs) -> Result<()> {
             print(&String::from_utf8_lossy(&buf))
         }
     }
+}
+
+/// The one fit of `path` that `eval --fit` evaluates: a file of several models or channels is
+/// refused unless `want` names one, with the choices and the flags that pick each.
+fn pick_for_eval(path: &Path, want: &brdfit::fit::Want) -> Result<brdfit::fit::PickedChannel> {
+    use brdfit::fit::same_channel;
+    let fits = read_fits(path)?;
+    let ambiguous = |what: &str, choices: Vec<String>| {
+        anyhow!(
+            "{}: the file holds fits of {} {what}s and eval evaluates one\n  fix: pick one with {}",
+            path.display(),
+            choices.len(),
+            choices.join(" | ")
+        )
+    };
+    // The models on offer (those of the channel asked, if any), in file order.
+    let of_channel = |f: &&brdfit::FitResult| {
+        want.channel
+            .as_deref()
+            .is_none_or(|c| f.channel.split(',').any(|h| same_channel(h, c)))
+    };
+    let mut models: Vec<(brdfit::ModelKind, brdfit::Distribution)> = Vec::new();
+    for f in fits.iter().filter(of_channel) {
+        if !models.contains(&(f.model, f.dist)) {
+            models.push((f.model, f.dist));
+        }
+    }
+    let flag = |(k, d): &(brdfit::ModelKind, brdfit::Distribution)| {
+        let kinds = models.iter().filter(|(x, _)| x == k).count();
+        if kinds > 1 {
+            format!("--model {k} --distribution {}", d.name())
+        } else {
+            format!("--model {k}")
+        }
+    };
+    let chosen: Vec<_> = models
+        .iter()
+        .filter(|(k, d)| want.model.is_none_or(|w| w == *k) && want.dist.is_none_or(|w| w == *d))
+        .collect();
+    if chosen.len() > 1 {
+        return Err(ambiguous("model", chosen.iter().map(|m| flag(m)).collect()));
+    }
+    let mut want = want.clone();
+    if let Some((k, d)) = chosen.first() {
+        (want.model, want.dist) = (Some(*k), Some(*d));
+    }
+    if want.channel.is_none() {
+        let mut channels: Vec<&str> = Vec::new();
+        for f in fits
+            .iter()
+            .filter(|f| Some(f.model) == want.model && Some(f.dist) == want.dist)
+        {
+            for c in f.channel.split(',') {
+                if !channels.contains(&c) {
+                    channels.push(c);
+                }
+            }
+        }
+        if channels.len() > 1 {
+            return Err(ambiguous(
+                "channel",
+                channels.iter().map(|c| format!("--channel {c}")).collect(),
+            ));
+        }
+        // The model's only channel, though other models of the file may have others.
+        want.channel = channels.first().map(|c| c.to_string());
+    }
+    // What is left names one fit, or none (the library's message says which exist).
+    pick_fit_from(path, &fits, &want, None)
 }
 
 /// Refuse a table where `m` overflowed (f_r infinite or NaN at some direction): nothing is

@@ -190,7 +190,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
             // With --fit and no --set, --model picks the fit file's model.
             let want = fit_want(&model, &fit, &load, ds.is_some(), allow_unusable);
             let plotted = ds.as_ref().map(|d| d.channels[0].name.clone());
-            let mut models = fitted_models(&fit, &want, plotted.as_deref())?;
+            let mut models = fitted_models(&fit, &want, plotted.as_deref(), ds.as_ref())?;
             if let Some(m) = analytic(&model, &fit)? {
                 models.push((format!("{m}"), m));
             }
@@ -330,21 +330,101 @@ fn lobe_quantity(
     Ok(q)
 }
 
-/// Each fit file's picked model, labelled with its fit and channel, for a chart's legend.
+/// Each fit file's picked model, labelled with its fit and channel, for a chart's legend. A
+/// file of several models (`fit --model all`) without `--model` gives every usable one, the
+/// recommended one first and so labelled. With data, a fit that cannot have been made from
+/// them is refused ([`brdfit::fit::check_fitted_to`]).
 fn fitted_models(
     fits: &[PathBuf],
     want: &brdfit::fit::Want,
     plotted: Option<&str>,
+    ds: Option<&brdfit::Dataset>,
 ) -> Result<Vec<(String, brdfit::Model)>> {
-    let mut models = Vec::new();
-    for f in fits {
-        let r = pick_fit(f, want, plotted)?;
+    let label = |r: &brdfit::fit::PickedChannel| {
         let channel = if brdfit::fit::is_unnamed_channel(&r.channel) {
             String::new()
         } else {
             format!(" ({})", r.channel)
         };
-        models.push((format!("{} fit{channel}", r.fit.label()), r.model));
+        let usable = if r.fit.usable() { "" } else { ", not usable" };
+        format!("{} fit{channel}{usable}", r.fit.label())
+    };
+    let check = |path: &Path, r: &brdfit::fit::PickedChannel| -> Result<()> {
+        if let Some(ds) = ds {
+            brdfit::fit::check_fitted_to(ds, &r.fit).map_err(|e| {
+                anyhow::anyhow!(
+                    "{}: {e}: the fit is of another data set, or of these data loaded otherwise\n  fix: plot the fit with the data it was fitted to (and the same --negative and --channel), or fit these data: brdfit fit DATA --json OUT",
+                    path.display()
+                )
+            })?;
+        }
+        Ok(())
+    };
+    let mut models = Vec::new();
+    for f in fits {
+        let all = read_fits(f)?;
+        let mut picked = brdfit::fit::pick_one(&all, want, plotted)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", f.display()))?;
+        let first = picked.channels.remove(0);
+        check(f, &first)?;
+        let mut kinds: Vec<(brdfit::ModelKind, brdfit::Distribution)> = Vec::new();
+        for r in all.iter().filter(|r| {
+            r.channel
+                .split(',')
+                .any(|c| brdfit::fit::same_channel(c, &first.channel))
+        }) {
+            if !kinds.contains(&(r.model, r.dist)) {
+                kinds.push((r.model, r.dist));
+            }
+        }
+        if want.model.is_some() || kinds.len() < 2 {
+            if !quiet() {
+                for n in &picked.notes {
+                    eprintln!("note: {}: {n}", f.display());
+                }
+            }
+            models.push((label(&first), first.model));
+            continue;
+        }
+        let start = models.len();
+        // Every model of the file on the same channel: the recommended one first.
+        let recommended = (first.fit.model, first.fit.dist);
+        models.push((format!("{}, recommended", label(&first)), first.model));
+        let mut skipped = Vec::new();
+        for (k, d) in kinds.into_iter().filter(|m| *m != recommended) {
+            let one = brdfit::fit::Want {
+                model: Some(k),
+                dist: Some(d),
+                channel: Some(first.channel.clone()),
+                allow_unusable: want.allow_unusable,
+            };
+            match brdfit::fit::pick(&all, &one) {
+                Ok(mut p) => {
+                    let r = p.channels.remove(0);
+                    check(f, &r)?;
+                    models.push((label(&r), r.model));
+                }
+                Err(_) => skipped.push(k.label(d)),
+            }
+        }
+        if !quiet() {
+            let skipped = if skipped.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "; not drawn, marked not usable: {} (--allow-unusable draws them)",
+                    skipped.join(", ")
+                )
+            };
+            eprintln!(
+                "note: {}: drawing the file's {} {}models of channel {} (the recommended {} first){skipped}; one model: --model NAME",
+                f.display(),
+                models.len() - start,
+                if want.allow_unusable { "" } else { "usable " },
+                first.channel,
+                first.fit.label()
+            );
+        }
     }
     Ok(models)
 }

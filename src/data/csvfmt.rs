@@ -365,7 +365,7 @@ pub fn write_csv(ds: &Dataset, path: &Path) -> Result<(), DataError> {
 
 /// An angle in degrees as written: rounded to 1e-11° so that a grid angle stored in radians
 /// prints as `30`, not `29.999999999999996` (far below any goniometer's resolution).
-fn degrees(rad: f64) -> f64 {
+pub(crate) fn degrees(rad: f64) -> f64 {
     let d = (rad.to_degrees() * 1e11).round() / 1e11;
     if d == 0.0 { 0.0 } else { d }
 }

@@ -23,6 +23,7 @@ use std::io::Read;
 use std::path::Path;
 
 pub use crate::support::input::{DataError, io_error};
+pub(crate) use csvfmt::degrees;
 pub use csvfmt::{load_directions, write_csv, write_csv_to};
 
 /// Unit direction for polar angle `theta` and azimuth `phi` (radians), N = +z.

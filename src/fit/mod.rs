@@ -19,8 +19,8 @@
 //!    determine;
 //! 6. `format`: ranking by BIC and the terminal tables.
 //!
-//! Beside them: `options` and `result` (what a fit is asked and returns), `read` (a fit read
-//! back from JSON), `models` (several models at once, `--model all`), `progress`, and the
+//! Beside them: `options` and `result` (what a fit is asked and returns), `residuals` (each
+//! sample's residual at a fit), `read` (a fit read back from JSON), `models` (several models at once, `--model all`), `progress`, and the
 //! solvers: `lsq` (brdfit's own), `argmin_peer` (argmin's), `dispatch` (the choice between
 //! them), over the `problem` they solve.
 
@@ -39,6 +39,7 @@ pub mod physical;
 mod progress;
 mod quantile;
 mod read;
+mod residuals;
 mod result;
 mod run;
 mod seed;
@@ -66,6 +67,9 @@ pub use options::{FitError, FitOptions, RESOLUTION, RobustKind, Weighting};
 pub use problem::Loss;
 pub use progress::{TICK, Watch, ticking, with_count};
 pub use quantile::t_quantile;
+pub use residuals::{
+    Residual, check_fitted_to, residual_definition, residuals, write_residuals_csv,
+};
 pub use result::{FitResult, KKT_TOLERANCE, SAME_MINIMUM, Verification, fits_json};
 pub use run::{fit, fit_timed};
 pub use setup::solid_angle_weights;

@@ -235,9 +235,90 @@ impl LobeChart {
     }
 }
 
+/// Most legend entries drawn inside a lobe panel (the incoming ray, the curves, the samples);
+/// more (every model of a `fit --model all` file) go in two columns below the panel, where
+/// they cover no lobe.
+const LEGEND_INSIDE: usize = 6;
+
+/// Height of one legend row below a panel, in pixels.
+const LEGEND_ROW: u32 = 19;
+
+impl LobeChart {
+    /// Rows of the legend below the panels (0 where every legend fits inside its panel).
+    fn legend_rows(&self) -> u32 {
+        self.panels
+            .iter()
+            .map(|p| p.series.len() + 1)
+            .filter(|&n| n > LEGEND_INSIDE)
+            .map(|n| n.div_ceil(2) as u32)
+            .max()
+            .unwrap_or(0)
+    }
+}
+
+/// Draw a panel's legend in two columns on `area` (below the panel): the incoming ray at
+/// θi, then each series with the glyph [`draw_series`] gives it.
+fn legend_below<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    panel: &LobePanel,
+) -> Result<()> {
+    // Down the first column, then the second.
+    let col = area.dim_in_pixel().0 as i32 / 2;
+    let rows = (panel.series.len() + 1).div_ceil(2);
+    let at = |i: usize| {
+        (
+            14 + col * (i / rows) as i32,
+            8 + (LEGEND_ROW as i32) * (i % rows) as i32,
+        )
+    };
+    let text =
+        |s: &str, (x, y): (i32, i32)| Text::new(s.to_string(), (x + 32, y - 7), ("sans-serif", 13));
+    let (x, y) = at(0);
+    area.draw(&PathElement::new(
+        vec![(x, y), (x + 24, y)],
+        BLACK.stroke_width(2),
+    ))
+    .map_err(err)?;
+    area.draw(&text(
+        &format!("incoming ray, θi = {}°", panel.theta_i_deg),
+        (x, y),
+    ))
+    .map_err(err)?;
+    let mut k = 0;
+    for (i, s) in panel.series.iter().enumerate() {
+        let (x, y) = at(i + 1);
+        if s.markers {
+            area.draw(&Circle::new(
+                (x + 9, y),
+                3,
+                super::series::MEASURED.filled(),
+            ))
+            .map_err(err)?;
+        } else {
+            let (width, dash, gap) = super::series::line_style(k);
+            let (dash, gap) = if gap == 0 { (30, 0) } else { (dash, gap) };
+            let color = PALETTE[k % PALETTE.len()];
+            area.draw(&plotters::element::DashedPathElement::new(
+                vec![(x, y), (x + 24, y)],
+                dash,
+                gap,
+                color.stroke_width(width),
+            ))
+            .map_err(err)?;
+            k += 1;
+        }
+        area.draw(&text(&s.label, (x, y))).map_err(err)?;
+    }
+    Ok(())
+}
+
 impl Chart for LobeChart {
     fn size(&self) -> (u32, u32) {
-        (560 * self.panels.len().max(1) as u32, 440)
+        let legend = match self.legend_rows() {
+            0 => 0,
+            n => n * LEGEND_ROW + 8,
+        };
+        (560 * self.panels.len().max(1) as u32, 440 + legend)
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()> {
@@ -277,6 +358,11 @@ impl Chart for LobeChart {
                 })
                 .sum();
             let (area, foot) = area.split_vertically(area.dim_in_pixel().1.saturating_sub(40));
+            let below = match self.legend_rows() {
+                0 => 0,
+                n => n * LEGEND_ROW + 8,
+            };
+            let (area, legend) = area.split_vertically(area.dim_in_pixel().1.saturating_sub(below));
             foot.draw(&Text::new(unit.clone(), (14, 4), ("sans-serif", 13)))
                 .map_err(err)?;
             if pinned > 0 {
@@ -376,7 +462,11 @@ impl Chart for LobeChart {
                     k += 1;
                 }
             }
-            draw_legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
+            if below == 0 {
+                draw_legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
+            } else {
+                legend_below(&legend, panel)?;
+            }
         }
         Ok(())
     }
