@@ -29,6 +29,7 @@ mod nist;
 mod nothing_lost;
 mod physical_choose;
 mod pixel_refit;
+mod plot_outputs;
 mod plots;
 mod prior;
 mod reference;
