@@ -38,6 +38,7 @@ mod render_aa;
 mod report;
 mod rgl;
 mod robustness;
+mod scale_free;
 mod scene_mutations;
 mod study;
 mod tabulated;
