@@ -100,7 +100,14 @@ pub(super) fn uncertainty(
         if let Some((a, b)) = range {
             ranges.push((name.clone(), a, b));
         }
-        if side != 0 && !ran_off {
+        if lay.specs[k].role == crate::model::Role::Index && theta[k] >= lay.specs[k].absurd_above {
+            // F = 1 − 4/n + … at normal incidence and larger elsewhere (Blinn 1977): above the
+            // limit every angle sees F ≈ 1 and the data say only that n is large.
+            warnings.push(match range {
+                Some(r) => format!("{METAL}: {}", describe_range(name, r, INTERVAL_LEVEL)),
+                None => METAL.to_string(),
+            });
+        } else if side != 0 && !ran_off {
             warnings.push(format!(
                 "{name} = {} is at its {} bound",
                 readable(theta[k]),
@@ -265,6 +272,10 @@ pub(super) fn statistics(
 
 /// The confidence level of the intervals a fit reports (`interval_level` in the fit JSON).
 pub const INTERVAL_LEVEL: f64 = 0.95;
+
+/// The warning of a Fresnel index at or above its limit (1e6, where F ≥ 1 − 4e-6 at every
+/// angle): a metal's, usable, with n not determined.
+pub const METAL: &str = "n is not determined: F ≈ 1 at every angle (a metal)";
 
 /// Human-readable form of an interval (∓∞ = open on that side) at confidence `level`; a
 /// level of 0 (fit files of earlier versions, whose `ranges` held the values within 1 % of

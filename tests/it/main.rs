@@ -22,6 +22,7 @@ mod ggx2;
 mod intervals;
 mod inverse;
 mod loaders;
+mod metal;
 mod model_props;
 mod mutation;
 mod nbrdf;

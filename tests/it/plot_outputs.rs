@@ -40,8 +40,15 @@ fn plot_refuses_an_output_that_is_its_input() {
             "-o",
             base.to_str().unwrap(),
         ];
-        expect_error(&args, &["overwrite an input", "fix: choose another output path"]);
-        assert_eq!(std::fs::read(&data).unwrap(), body, "{cmd}: the input changed");
+        expect_error(
+            &args,
+            &["overwrite an input", "fix: choose another output path"],
+        );
+        assert_eq!(
+            std::fs::read(&data).unwrap(),
+            body,
+            "{cmd}: the input changed"
+        );
     }
 }
 
@@ -53,7 +60,10 @@ fn plot_refuses_a_pipe_or_a_file_before_reading_its_inputs() {
     let d = dir.path();
     let missing_fit = d.join("missing.json");
     let missing_data = d.join("missing.csv");
-    let (fit, data) = (missing_fit.to_str().unwrap(), missing_data.to_str().unwrap());
+    let (fit, data) = (
+        missing_fit.to_str().unwrap(),
+        missing_data.to_str().unwrap(),
+    );
     let lobe = d.join("lobe");
     mkfifo(&d.join("lobe.png"));
     let res = d.join("res");
