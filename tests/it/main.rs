@@ -45,3 +45,4 @@ mod study;
 mod tabulated;
 mod truth;
 mod truth_two_abc;
+mod wald;
