@@ -6,6 +6,7 @@ mod abc;
 mod albedo;
 mod bounded;
 mod choose;
+mod choose_runs;
 mod cli;
 mod cli_fit;
 mod cli_hints;

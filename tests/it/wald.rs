@@ -36,7 +36,10 @@ fn a_standard_error_that_contradicts_the_interval_is_said() {
         fit::fit(&ds, &o).unwrap()[0].cost
     };
     let wald_hi = n + t * se;
-    assert!(wald_hi > 2.0 * hi - n, "the case no longer contradicts: {n} ± {se}, [{lo}, {hi}]");
+    assert!(
+        wald_hi > 2.0 * hi - n,
+        "the case no longer contradicts: {n} ± {se}, [{lo}, {hi}]"
+    );
     // The data refuse the Wald end, and halfway to it; they allow the profiled ends.
     assert!(held(wald_hi) > limit && held(0.5 * (hi + wald_hi)) > limit);
     assert!(held(lo + 0.01 * (n - lo)) <= limit && held(hi - 0.01 * (hi - n)) <= limit);
@@ -46,18 +49,31 @@ fn a_standard_error_that_contradicts_the_interval_is_said() {
         .iter()
         .find(|w| w.starts_with("n's standard error"))
         .unwrap_or_else(|| panic!("{:?}", f.warnings));
-    assert!(said.contains("contradicts its profiled interval") && said.contains("use the interval"));
     assert!(
-        !f.warnings.iter().any(|w| w.starts_with("n is not determined")),
+        said.contains("contradicts its profiled interval") && said.contains("use the interval")
+    );
+    assert!(
+        !f.warnings
+            .iter()
+            .any(|w| w.starts_with("n is not determined")),
         "{:?}",
         f.warnings
     );
     // The table flags the standard error and says what the flag means.
     let text = fit::format_fit(&f);
-    let row = text.lines().find(|l| l.trim_start().starts_with("n ")).unwrap();
+    let row = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("n "))
+        .unwrap();
     assert!(row.trim_end().ends_with('!'), "{text}");
-    assert!(text.contains("! the standard error contradicts the interval"), "{text}");
+    assert!(
+        text.contains("! the standard error contradicts the interval"),
+        "{text}"
+    );
     // A parameter whose two intervals agree (pd: ±5.1e-3 against about ±5.2e-3) is not flagged.
-    let row = text.lines().find(|l| l.trim_start().starts_with("pd ")).unwrap();
+    let row = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("pd "))
+        .unwrap();
     assert!(!row.trim_end().ends_with('!'), "{text}");
 }
