@@ -237,30 +237,6 @@ fn check_fit_count(file: &Path, channels: usize, models: usize) -> Result<()> {
     Ok(())
 }
 
-/// Smallest largest-value a fitted file may have (f_r in 1/sr): 1e-9. The fits agree with
-/// the truth from there up to albedo 1 (Blinn's MgO scaled by 1e-8 to 1 gives the same n and c3 to
-/// 0.1 %), but below about 1e-11 the bounds' absolute tolerances take ps and pd for zero (scaled
-/// by 1e-12 it ended at n = 3001 against the truth's 1.8). No measured material is that dark.
-pub(crate) const MIN_LARGEST_VALUE: f64 = 1e-9;
-
-/// Refuse a file whose values are all below [`MIN_LARGEST_VALUE`].
-fn check_scale(file: &Path, ds: &brdfit::data::Dataset) -> Result<()> {
-    let largest = ds
-        .channels
-        .iter()
-        .flat_map(|c| c.values.iter())
-        .copied()
-        .filter(|v| v.is_finite())
-        .fold(0.0f64, f64::max);
-    if largest > 0.0 && largest < MIN_LARGEST_VALUE {
-        bail!(
-            "{}: the largest value is {largest:e}, below {MIN_LARGEST_VALUE:e}: no measured material is that dark, and the fits lose their precision there\n  fix: check the unit of the values (f_r in 1/sr) and scale them (e.g. by 1e12) before fitting; ps and pd scale with them",
-            file.display()
-        );
-    }
-    Ok(())
-}
-
 /// Warn (even with --quiet, like the loaders' warnings) when samples repeat an earlier
 /// sample's angles: each copy counts as an independent measurement, so the standard errors
 /// shrink by about √(copies) although no information was added.
@@ -383,7 +359,6 @@ pub(crate) fn fit_one(a: &FitArgs, load: &LoadArgs, file: &Path) -> Result<Fitte
         None => fit::all_models(),
     };
     check_fit_count(file, ds.channels.len(), kinds.len())?;
-    check_scale(file, &ds)?;
     duplicates_warning(file, &ds);
     let (method, loss, robust) = (a.method, a.loss, a.robust);
     let fix = parse_assignments("--fix", &a.fix)?;

@@ -167,6 +167,30 @@ pub(crate) fn base(p: &Path) -> Result<PathBuf> {
     output_base(p, &["svg", "png"])
 }
 
+/// Refuse, before any work, a chart's output that is a folder, a device or one of `inputs`:
+/// the SVG and PNG of each base in `bases` ([`refuse_input`]). A folder of charts (`dir`) that
+/// exists as something else than a folder is refused too.
+fn check_chart_outputs(dir: Option<&Path>, bases: &[PathBuf], inputs: &[&Path]) -> Result<()> {
+    if let Some(d) = dir.filter(|d| d.exists() && !d.is_dir()) {
+        bail!(
+            "-o {}: is not a folder; this command writes its charts into a folder
+  fix: give a new name or a folder",
+            d.display()
+        );
+    }
+    for b in bases {
+        for ext in ["svg", "png"] {
+            refuse_input(&b.with_extension(ext), inputs)?;
+        }
+    }
+    Ok(())
+}
+
+/// The inputs of a plot: the fit files and the data file, if any.
+fn inputs<'a>(fits: &'a [PathBuf], data: Option<&'a PathBuf>) -> Vec<&'a Path> {
+    fits.iter().chain(data).map(PathBuf::as_path).collect()
+}
+
 pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
     use brdfit::plot;
     match cmd {
@@ -182,6 +206,12 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
             load,
             output,
         } => {
+            let out = base(&output)?;
+            check_chart_outputs(
+                None,
+                std::slice::from_ref(&out),
+                &inputs(&fit, data.as_ref()),
+            )?;
             let q = lobe_quantity(&quantity, tolerance, &theta_i)?;
             let ds = data
                 .as_ref()
@@ -212,10 +242,12 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                 log,
                 plot::InPlane::both(tolerance),
             );
-            save_chart(&chart, &base(&output)?)?;
+            save_chart(&chart, &out)?;
             Ok(())
         }
         PlotCommand::BlinnFigures { output } => {
+            let names = ["figure5", "figure6"].map(|n| output.join(n));
+            check_chart_outputs(Some(&output), &names, &[])?;
             save_chart(&plot::blinn_figure(30.0, 5), &output.join("figure5"))?;
             save_chart(&plot::blinn_figure(70.0, 6), &output.join("figure6"))?;
             Ok(())
@@ -227,7 +259,10 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
             load,
             output,
         } => {
-            let ds = data_for_fits(&load, &data, std::slice::from_ref(&fit))?;
+            let names = plot::RESIDUAL_FILES.map(|n| output.join(n));
+            let fits = std::slice::from_ref(&fit);
+            check_chart_outputs(Some(&output), &names, &inputs(fits, Some(&data)))?;
+            let ds = data_for_fits(&load, &data, fits)?;
             let r = pick_fit(&fit, &pick.want(None), Some(&ds.channels[0].name))?;
             let pts = plot::residual_points(
                 &ds,
@@ -249,7 +284,10 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
             bins,
             output,
         } => {
-            let ds = data_for_fits(&load, &data, std::slice::from_ref(&fit))?;
+            let out = base(&output)?;
+            let fits = std::slice::from_ref(&fit);
+            check_chart_outputs(None, std::slice::from_ref(&out), &inputs(fits, Some(&data)))?;
+            let ds = data_for_fits(&load, &data, fits)?;
             let r = pick_fit(&fit, &pick.want(None), Some(&ds.channels[0].name))?;
             let (d, f) = plot::slice_grids(&ds, 0, &r.model, bins as usize);
             let chart = plot::SliceChart {
@@ -262,7 +300,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                 n: bins as usize,
                 images: [d, f],
             };
-            save_chart(&chart, &base(&output)?)?;
+            save_chart(&chart, &out)?;
             Ok(())
         }
         PlotCommand::Albedo {
@@ -274,6 +312,12 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
             output,
         } => {
             let fits: Vec<PathBuf> = fit.into_iter().collect();
+            let out = base(&output)?;
+            check_chart_outputs(
+                None,
+                std::slice::from_ref(&out),
+                &inputs(&fits, data.as_ref()),
+            )?;
             let ds = data
                 .as_ref()
                 .map(|d| data_for_fits(&load, d, &fits))
@@ -293,7 +337,7 @@ pub(crate) fn run_plot(cmd: PlotCommand) -> Result<()> {
                 _ => vec![],
             };
             let (chart, pts) = plot::albedo_chart(&label, &m, &measured);
-            save_chart(&chart, &base(&output)?)?;
+            save_chart(&chart, &out)?;
             let worst = pts
                 .iter()
                 .cloned()

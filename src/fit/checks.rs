@@ -29,7 +29,9 @@ pub(super) fn certify(
     let (kkt_violation, why) = first_order(full, &found.sol, found.robust, &lay.names);
     unusable.extend(why);
     for k in 0..theta.len() {
-        if theta[k] >= lay.specs[k].absurd_above {
+        // A Fresnel index above the limit is a metal's (F ≈ 1 at every angle): the fit is
+        // usable and the statistics say n is not determined ([`super::stats::METAL`]).
+        if theta[k] >= lay.specs[k].absurd_above && lay.specs[k].role != crate::model::Role::Index {
             unusable.push(format!(
                 "{} = {} is not a physical value (≥ {})",
                 lay.names[k],

@@ -2,6 +2,7 @@
 
 use super::options::Weighting;
 use super::result::FitResult;
+use super::stats::{WALD_FACTOR, wald_mismatch};
 use crate::model::{Distribution, ModelKind, readable};
 
 /// The models compared by `--model all`: (kind, distribution), simplest first.
@@ -63,23 +64,38 @@ pub fn format_fit(f: &FitResult) -> String {
         "  {:<8} {:>14}  {:<26} {:>14}",
         "param", "value", level, "std. error"
     );
+    // The t of the intervals, to compare value ± t·se with them (WALD_FACTOR).
+    let dof = f.samples_used.saturating_sub(f.n_free).max(1) as f64;
+    let t = (f.interval_level > 0.0).then(|| super::t_quantile(f.interval_level, dof));
+    let mut contradicted = false;
     for (((n, v), se), free) in f.params.iter().zip(&f.stderr).zip(&f.free) {
         let value = readable(*v);
         if *free {
+            let range = f.ranges.iter().find(|r| r.0 == *n);
+            let flag = match (range, t) {
+                (Some(r), Some(t)) => {
+                    wald_mismatch(*v, *se, (r.1, r.2), t).is_some_and(|x| x > WALD_FACTOR)
+                }
+                _ => false,
+            };
+            contradicted |= flag;
             let se = if se.is_finite() && (*se <= 10.0 * v.abs() || *v == 0.0) {
-                format!("{se:.3e}")
+                format!("{se:.3e}{}", if flag { " !" } else { "" })
             } else {
                 "not determined".into()
             };
-            let iv = f
-                .ranges
-                .iter()
-                .find(|r| r.0 == *n)
-                .map_or(String::new(), |r| interval_text(r.1, r.2));
+            let iv = range.map_or(String::new(), |r| interval_text(r.1, r.2));
             let _ = writeln!(s, "  {n:<8} {value:>14}  {iv:<26} {se:>14}");
         } else {
             let _ = writeln!(s, "  {n:<8} {value:>14} {:>14}", "(fixed)");
         }
+    }
+    if contradicted {
+        let _ = writeln!(
+            s,
+            "  ! the standard error contradicts the interval (value ± t·se is over {WALD_FACTOR}× off \
+             on a side): use the interval"
+        );
     }
     // Weighted samples: the cost and rmse are the weighted ones, and say so.
     let w = match (f.weighted, f.weights) {

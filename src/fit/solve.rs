@@ -199,9 +199,11 @@ pub(super) fn robust_scale(p: &BrdfProblem, x: &[f64]) -> f64 {
     let mut r: Vec<f64> = (0..p.n_residuals())
         .map(|i| p.residual(&prep, i).abs())
         .collect();
+    let largest = r.iter().copied().fold(0.0f64, f64::max);
     let mid = r.len() / 2;
     let med = *r.select_nth_unstable_by(mid, f64::total_cmp).1;
-    (1.345 * 1.4826 * med).max(1e-12)
+    // Floored relative to the residuals (the data may be of any scale), for an exact median.
+    (1.345 * 1.4826 * med).max(1e-12 * largest).max(1e-300)
 }
 
 /// The default or user start as solver variables (a per-channel variable `ps_r` takes a

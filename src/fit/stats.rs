@@ -95,12 +95,22 @@ pub(super) fn uncertainty(
         // A shape parameter at the end of its box has run off (a linear one at 0 is an answer).
         let ran_off = side != 0 && matches!(t.scale, Scale::Log { .. });
         let rel = se[k] / theta[k].abs().max(1e-300);
+        // Where the profiled interval contradicts the standard error, it alone judges.
+        let contradiction = range.and_then(|r| wald_warning(name, theta[k], se[k], r, q.sqrt()));
+        let rel = if contradiction.is_some() { 0.0 } else { rel };
         // Weak: the interval spans more than a factor 1.25, or reaches a bound.
         let wide = range.is_some_and(|(a, b)| !(b / a <= 1.25) || a == f64::NEG_INFINITY);
         if let Some((a, b)) = range {
             ranges.push((name.clone(), a, b));
         }
-        if side != 0 && !ran_off {
+        if lay.specs[k].role == crate::model::Role::Index && theta[k] >= lay.specs[k].absurd_above {
+            // F = 1 − 4/n + … at normal incidence and larger elsewhere (Blinn 1977): above the
+            // limit every angle sees F ≈ 1 and the data say only that n is large.
+            warnings.push(match range {
+                Some(r) => format!("{METAL}: {}", describe_range(name, r, INTERVAL_LEVEL)),
+                None => METAL.to_string(),
+            });
+        } else if side != 0 && !ran_off {
             warnings.push(format!(
                 "{name} = {} is at its {} bound",
                 readable(theta[k]),
@@ -129,6 +139,7 @@ pub(super) fn uncertainty(
                 None => why,
             });
         }
+        warnings.extend(contradiction);
     }
     Uncertainty {
         se,
@@ -265,6 +276,41 @@ pub(super) fn statistics(
 
 /// The confidence level of the intervals a fit reports (`interval_level` in the fit JSON).
 pub const INTERVAL_LEVEL: f64 = 0.95;
+
+/// Where the Wald interval (value ± t·se, from JᵀJ) and the profiled one differ in their
+/// distance from the value by more than this factor on a side, the output says so: the cost is
+/// far from quadratic in the parameter, and the profiled interval is the one that holds.
+pub const WALD_FACTOR: f64 = 2.0;
+
+/// The factor by which the Wald interval `value ± t·se` and the profiled `[lo, hi]` differ in
+/// their distance from `value`, the larger of the two sides (≥ 1); `None` where either is
+/// not finite (an open interval is described as such already).
+pub fn wald_mismatch(value: f64, se: f64, (lo, hi): (f64, f64), t: f64) -> Option<f64> {
+    let w = t * se;
+    let ratio = |d: f64| (w / d).max(d / w);
+    let r = ratio(value - lo).max(ratio(hi - value));
+    (w > 0.0 && r.is_finite()).then_some(r)
+}
+
+/// The warning of a Wald interval that contradicts the profiled one ([`wald_mismatch`]).
+pub fn wald_warning(name: &str, value: f64, se: f64, range: (f64, f64), t: f64) -> Option<String> {
+    let r = wald_mismatch(value, se, range, t).filter(|r| *r > WALD_FACTOR)?;
+    Some(format!(
+        "{name}'s standard error {} contradicts its profiled interval: value ± t·se is [{}, {}] \
+         where the data allow [{}, {}] (a factor {} apart; the cost is not quadratic in {name}): \
+         use the interval, not the standard error",
+        readable(se),
+        readable(value - t * se),
+        readable(value + t * se),
+        readable(range.0),
+        readable(range.1),
+        readable((10.0 * r).round() / 10.0),
+    ))
+}
+
+/// The warning of a Fresnel index at or above its limit (1e6, where F ≥ 1 − 4e-6 at every
+/// angle): a metal's, usable, with n not determined.
+pub const METAL: &str = "n is not determined: F ≈ 1 at every angle (a metal)";
 
 /// Human-readable form of an interval (∓∞ = open on that side) at confidence `level`; a
 /// level of 0 (fit files of earlier versions, whose `ranges` held the values within 1 % of

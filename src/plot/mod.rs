@@ -24,7 +24,7 @@ pub use lobe::{
     InPlane, LobeChart, LobePanel, LobeQuantity, LobeSeries, blinn_figure, blinn_figure_models,
     curve_max, in_plane_samples, lobe_chart, lobe_curve,
 };
-pub use residual::{binned_quantiles, residual_charts, residual_points};
+pub use residual::{RESIDUAL_FILES, binned_quantiles, residual_charts, residual_points};
 pub use series::{MEASURED, line_style};
 pub use slice::{SliceChart, slice_grids};
 pub use svg::svg_text_to_paths;

@@ -27,13 +27,16 @@ pub fn residual_points(ds: &Dataset, c: usize, model: &Model, log_loss: bool) ->
         .collect()
 }
 
+/// The file names (without extension) of the [`residual_charts`], against θh, θd and θi.
+pub const RESIDUAL_FILES: [&str; 3] = ["residual-theta-h", "residual-theta-d", "residual-theta-i"];
+
 /// Residual charts against θh, θd and θi.
 pub fn residual_charts(label: &str, pts: &[[f64; 4]]) -> Vec<(String, XyChart)> {
     ["θh", "θd", "θi"]
         .iter()
         .enumerate()
         .map(|(k, name)| {
-            let file = ["residual-theta-h", "residual-theta-d", "residual-theta-i"][k];
+            let file = RESIDUAL_FILES[k];
             let xy: Vec<(f64, f64)> = pts.iter().map(|p| (p[k], p[3])).collect();
             let q = binned_quantiles(&xy, 30);
             let line = |label: &str, f: fn(&[f64; 4]) -> f64| LobeSeries {

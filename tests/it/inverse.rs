@@ -16,7 +16,7 @@ fn light() -> DVec3 {
     DVec3::new(0.45, 0.2, 1.0).normalize()
 }
 
-fn scene(shape: Shape) -> Scene {
+fn scene(shape: Shape, light: DVec3) -> Scene {
     // A distant camera with a narrow field: nearly orthographic, so the view is along −z.
     let half = 1.2 * R;
     let fov = 2.0 * (half / EYE_Z).atan().to_degrees();
@@ -44,7 +44,7 @@ fn scene(shape: Shape) -> Scene {
         }],
         // Irradiance π and pd = 1: Cd = pd·E/π = 1; ambient radiance 0.1: Ca = 0.1.
         lights: vec![Light::Directional {
-            direction: light(),
+            direction: light,
             irradiance: DVec3::splat(std::f64::consts::PI),
         }],
         ambient: DVec3::splat(0.1),
@@ -84,7 +84,12 @@ struct Outcome {
 }
 
 fn invert(shape: Shape, noise: f64, seed: u64) -> Outcome {
-    let img = scene(shape).render(&|| {});
+    invert_lit(shape, noise, seed, light())
+}
+
+/// [`invert`] under the directional light `l` (unit, toward the light).
+fn invert_lit(shape: Shape, noise: f64, seed: u64, l: DVec3) -> Outcome {
+    let img = scene(shape, l).render(&|| {});
     let row = W / 2;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let gauss = Normal::new(0.0, 1.0).unwrap();
@@ -94,7 +99,6 @@ fn invert(shape: Shape, noise: f64, seed: u64) -> Outcome {
             v * (1.0 + noise * gauss.sample(&mut rng))
         })
         .collect();
-    let l = light();
     let pixel = 2.4 * R / W as f64;
     let px = inverse::invert_line(&vals, [l.x, l.z], 0.1, 1.0, pixel, Prior::Convex);
     // Truth on the object: x = world_x, z = √(R² − x²), N = (x, z)/R.
@@ -270,5 +274,34 @@ fn an_exact_cylinder_inverts_with_the_light_off_the_view_axis() {
             assert!(err < 0.01, "light {deg}°: u {u}: normal off by {err}°");
         }
         assert!(lit > n / 3, "light {deg}°: only {lit} lit pixels");
+    }
+}
+
+/// A sphere rendered by brdfit under a light far off the view axis (60° and 45° from it, on
+/// either side, one with a component across the line): past the brightest pixel the two
+/// solution branches cross, and the kept one must follow the true sphere there too. The truth
+/// is the sphere's own normal (x, √(R² − x²))/R along the middle row.
+#[test]
+fn a_sphere_rendered_with_the_light_off_axis_inverts_past_the_brightest_pixel() {
+    let sphere = || Shape::Sphere {
+        center: DVec3::ZERO,
+        radius: R,
+    };
+    for (deg, y) in [(60.0f64, 0.0), (-45.0, 0.3)] {
+        let t = deg.to_radians();
+        let l = DVec3::new(t.sin(), y, t.cos()).normalize();
+        let o = invert_lit(sphere(), 0.0, 1, l);
+        assert!(o.flagged == 0, "light {deg}°: {} flagged", o.flagged);
+        assert!(
+            o.max_normal_err_deg < 1.0,
+            "light {deg}°: max normal error {}° (median {}°)",
+            o.max_normal_err_deg,
+            o.median_normal_err_deg
+        );
+        assert!(
+            o.height_err_frac < 0.01,
+            "light {deg}°: {}",
+            o.height_err_frac
+        );
     }
 }

@@ -94,8 +94,10 @@ pub(super) fn nnls(a: &[f64], b: &[f64], free: &[bool]) -> Vec<f64> {
                 .map(|i| x[i] / (x[i] - z[i]))
                 .fold(1.0, f64::min);
             for i in 0..k {
+                // Zero up to the rounding of this step (relative: the data may be of any scale).
+                let tiny = 1e-15 * x[i].abs().max(z[i].abs());
                 x[i] += alpha * (z[i] - x[i]);
-                if passive[i] && x[i] <= 1e-15 * x[i].abs().max(1.0) {
+                if passive[i] && x[i] <= tiny {
                     x[i] = 0.0;
                     passive[i] = false;
                 }

@@ -82,9 +82,11 @@ pub(crate) fn damped_solve(
 /// space.
 const SMALL: usize = crate::model::MAX_PARAMS;
 
-/// Where `x` sits on its box: −1 at the lower bound, +1 at the upper, 0 inside.
+/// Where `x` sits on its box: −1 at the lower bound, +1 at the upper, 0 inside. The
+/// tolerance is relative to the bound (a bound of 0 is met only exactly, as the projection
+/// puts a variable there): an absolute one took ps = 1e-13 of data scaled by 1e-12 for 0.
 pub fn bound_side(x: f64, (lo, hi): (f64, f64)) -> i8 {
-    let tol = |b: f64| 1e-12 * (1.0 + b.abs());
+    let tol = |b: f64| 1e-12 * b.abs();
     if x <= lo + tol(lo) {
         -1
     } else if x >= hi - tol(hi) {
@@ -114,14 +116,23 @@ pub(crate) fn project(x: &mut [f64], bounds: &[(f64, f64)]) {
     }
 }
 
-/// Marquardt's diagonal scaling: JᵀJ's diagonal, floored at 10⁻¹² of its largest entry.
+/// Marquardt's diagonal scaling: JᵀJ's diagonal, each variable's own; a zero (or non-finite)
+/// entry takes the largest (Moré, "The Levenberg–Marquardt algorithm", 1978, §6, takes 1).
+/// Not floored relative to the other variables: the columns of a shape parameter and of a
+/// linear one differ by the square of the data's scale (10⁻²⁴ for data scaled by 10⁻¹²), and
+/// such a floor froze the shape parameter there.
 pub(super) fn scale_diag(n: &Normal, dim: usize) -> Vec<f64> {
+    let diag = |i: usize| n.jtj[i * dim + i];
     let maxd = (0..dim)
-        .map(|i| n.jtj[i * dim + i])
-        .fold(0.0f64, f64::max)
-        .max(1e-300);
+        .map(diag)
+        .filter(|v| v.is_finite())
+        .fold(0.0f64, f64::max);
+    let maxd = if maxd > 0.0 { maxd } else { 1.0 };
     (0..dim)
-        .map(|i| n.jtj[i * dim + i].max(1e-12 * maxd))
+        .map(|i| {
+            let v = diag(i);
+            if v > 0.0 && v.is_finite() { v } else { maxd }
+        })
         .collect()
 }
 
