@@ -40,6 +40,10 @@ pub(crate) struct FitArgs {
     /// The data file(s); several files are fitted in parallel (see --jobs, --summary).
     #[arg(required = true)]
     pub(crate) files: Vec<PathBuf>,
+    /// The files are measurements of one material: merge them (samples at the same angles
+    /// averaged, the same channels required) and fit once, instead of fitting each.
+    #[arg(long)]
+    pub(crate) merge: bool,
     /// Files fitted at once in a batch (1–64).
     #[arg(long, short = 'j', default_value_t = 2, value_parser = clap::value_parser!(u16).range(1..=64))]
     pub(crate) jobs: u16,

@@ -9,8 +9,11 @@ use brdfit::choose::{self, Metric, Threshold};
 #[derive(clap::Args, Debug)]
 pub(crate) struct ChooseArgs {
     /// The measurement (.csv, .astm, .brdf or MERL .binary); one channel is judged (the
-    /// green channel of RGB data, CIE Y of spectral data, or --channel).
-    pub(crate) data: PathBuf,
+    /// green channel of RGB data, CIE Y of spectral data, or --channel). Several files of one
+    /// material are merged (samples at the same angles averaged; the same channels required),
+    /// e.g. a goniometer's grid and the samples `brdfit plan` asked for.
+    #[arg(required = true)]
+    pub(crate) data: Vec<PathBuf>,
     /// `fig7` for Blinn's Figure 7 lighting cases (front lit, edge lit), or a scene TOML whose
     /// test object is the material named by its `test_object` key, else its first material in
     /// file order.
@@ -104,7 +107,18 @@ pub(crate) fn run_choose(a: ChooseArgs) -> Result<()> {
         );
     }
     // The channel judged: --channel, else the representative one (green of RGB data).
-    let full = a.load.load(&a.data)?;
+    let full = {
+        let sets = a
+            .data
+            .iter()
+            .map(|p| a.load.load(p))
+            .collect::<Result<Vec<_>>>()?;
+        if sets.len() == 1 {
+            sets.into_iter().next().expect("one set")
+        } else {
+            data::Dataset::merge(&sets).map_err(|e| anyhow!("{e}"))?
+        }
+    };
     let ds = match a.load.channel {
         Some(_) => full.clone(),
         None => {

@@ -67,7 +67,9 @@ pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
         .num_threads(a.jobs as usize)
         .build()
         .map_err(|e| anyhow!("cannot start {} jobs: {e}", a.jobs))?;
-    let results: Vec<Result<Fitted>> = if a.files.len() == 1 {
+    let results: Vec<Result<Fitted>> = if a.merge {
+        vec![fit_merged(a, load)]
+    } else if a.files.len() == 1 {
         vec![fit_one(a, load, &a.files[0])]
     } else {
         let bar = progress_bar(a.files.len() as u64, "files");
@@ -89,7 +91,7 @@ pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
     for (f, r) in a.files.iter().zip(results) {
         match r {
             Ok((text, fits, residuals)) => {
-                if a.files.len() > 1 {
+                if a.files.len() > 1 && !a.merge {
                     print(&format!("== {}\n", f.display()))?;
                 }
                 print(&text)?;
@@ -100,7 +102,7 @@ pub(crate) fn run_fit(a: &FitArgs, load: &LoadArgs) -> Result<()> {
             }
             Err(e) => {
                 // One file: main reports the error; a batch reports each and goes on.
-                if a.files.len() > 1 {
+                if a.files.len() > 1 && !a.merge {
                     report_error(&e);
                 }
                 first_err.get_or_insert(e);
@@ -282,7 +284,7 @@ fn check_residuals_target(a: &FitArgs) -> Result<()> {
     let Some(r) = &a.residuals else {
         return Ok(());
     };
-    if a.files.len() > 1 {
+    if a.files.len() > 1 && !a.merge {
         bail!(
             "--residuals {}: {} data files given; the residuals are written for one\n  fix: fit each file on its own with --residuals",
             r.display(),
@@ -340,7 +342,6 @@ fn residuals_csv(
 
 /// Fit one file as the flags say: the terminal text, the fits and the residuals asked for.
 pub(crate) fn fit_one(a: &FitArgs, load: &LoadArgs, file: &Path) -> Result<Fitted> {
-    use brdfit::fit::{self, FitOptions};
     let t = std::time::Instant::now();
     let ds = load.load(file)?;
     if VERBOSE.load(std::sync::atomic::Ordering::Relaxed) {
@@ -352,6 +353,24 @@ pub(crate) fn fit_one(a: &FitArgs, load: &LoadArgs, file: &Path) -> Result<Fitte
             t.elapsed().as_secs_f64()
         );
     }
+    fit_loaded(a, file, ds)
+}
+
+/// `--merge`: every file of the command line as one measurement, fitted once under the
+/// first file's name.
+fn fit_merged(a: &FitArgs, load: &LoadArgs) -> Result<Fitted> {
+    let sets = a
+        .files
+        .iter()
+        .map(|f| load.load(f))
+        .collect::<Result<Vec<_>>>()?;
+    let ds = data::Dataset::merge(&sets).map_err(|e| anyhow!("{e}"))?;
+    fit_loaded(a, &a.files[0], ds)
+}
+
+/// Fit the loaded data of `file` as the arguments say.
+fn fit_loaded(a: &FitArgs, file: &Path, ds: data::Dataset) -> Result<Fitted> {
+    use brdfit::fit::{self, FitOptions};
     let dist = a.distribution;
     // clap has checked the name: `all` or a model.
     let kinds: Vec<(ModelKind, Distribution)> = match ModelKind::parse(&a.model) {
@@ -397,7 +416,7 @@ pub(crate) fn fit_one(a: &FitArgs, load: &LoadArgs, file: &Path) -> Result<Fitte
     // The models in parallel, each channel's geometry computed once for them all. A bar (on a
     // terminal, one file) from a tenth of a million samples on, where the fits take seconds (a
     // full MERL table: about 20 s for --model all); a batch of files has its own bar.
-    let bar = if a.files.len() == 1 && ds.len() >= BAR_SAMPLES {
+    let bar = if (a.files.len() == 1 || a.merge) && ds.len() >= BAR_SAMPLES {
         progress_bar(1, "fitting")
     } else {
         indicatif::ProgressBar::hidden()

@@ -399,3 +399,79 @@ fn measure_first_measurement_of_twenty() {
     }
     println!("planned within 0.1: {within} of 8");
 }
+
+/// `fit --merge` and `choose` of a file split in two (disjoint halves, so the merged data are
+/// the file itself, row for row) give what the whole file gives: the same parameters, and the
+/// same `choose.json` but for its times.
+#[test]
+fn split_files_merge_back_into_the_whole() {
+    use crate::cli::brdfit as run;
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    let whole = crate::common::root().join("data/blinn-mgo.csv");
+    let text = std::fs::read_to_string(&whole).unwrap();
+    let (head, rows): (Vec<&str>, Vec<&str>) = {
+        let mut lines = text.lines();
+        let mut head = Vec::new();
+        for l in lines.by_ref() {
+            head.push(l);
+            if !l.starts_with('#') {
+                break;
+            }
+        }
+        (head, lines.collect())
+    };
+    let half = rows.len() / 2;
+    for (name, part) in [("a.csv", &rows[..half]), ("b.csv", &rows[half..])] {
+        let body = head
+            .iter()
+            .chain(part.iter())
+            .cloned()
+            .collect::<Vec<_>>()
+            .join("\n");
+        std::fs::write(p(name), body + "\n").unwrap();
+    }
+    let params = |args: &[&str], out: &str| {
+        let mut all = args.to_vec();
+        all.extend(["--json", out]);
+        let o = run(&all);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out).unwrap()).unwrap();
+        let f = v["fits"][0].clone();
+        (f["params"].clone(), f["samples_used"].clone())
+    };
+    let w = whole.to_str().unwrap();
+    let one = params(&["fit", w], &p("whole.json"));
+    let merged = params(
+        &["fit", &p("a.csv"), &p("b.csv"), "--merge"],
+        &p("merged.json"),
+    );
+    assert_eq!(one, merged);
+    let choose = |files: &[&str], out: &str| {
+        let mut args = vec!["choose"];
+        args.extend(files);
+        args.extend(["--res", "24", "--verify", "0", "-o", out]);
+        let o = run(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(format!("{out}/choose.json")).unwrap())
+                .unwrap();
+        fn drop_times(v: &mut serde_json::Value) {
+            match v {
+                serde_json::Value::Object(m) => {
+                    m.retain(|k, _| !k.ends_with("seconds"));
+                    m.values_mut().for_each(drop_times);
+                }
+                serde_json::Value::Array(a) => a.iter_mut().for_each(drop_times),
+                _ => {}
+            }
+        }
+        drop_times(&mut v);
+        v
+    };
+    assert_eq!(
+        choose(&[w], &p("c1")),
+        choose(&[&p("a.csv"), &p("b.csv")], &p("c2"))
+    );
+}
