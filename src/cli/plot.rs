@@ -377,7 +377,8 @@ fn lobe_quantity(
 /// Each fit file's picked model, labelled with its fit and channel, for a chart's legend. A
 /// file of several models (`fit --model all`) without `--model` gives every usable one, the
 /// recommended one first and so labelled. With data, a fit that cannot have been made from
-/// them is refused ([`brdfit::fit::check_fitted_to`]).
+/// them is refused, and one whose cost on them is not the one it reports is drawn with a
+/// warning ([`brdfit::fit::check_fitted_to`]).
 fn fitted_models(
     fits: &[PathBuf],
     want: &brdfit::fit::Want,
@@ -395,12 +396,19 @@ fn fitted_models(
     };
     let check = |path: &Path, r: &brdfit::fit::PickedChannel| -> Result<()> {
         if let Some(ds) = ds {
-            brdfit::fit::check_fitted_to(ds, &r.fit).map_err(|e| {
+            let note = brdfit::fit::check_fitted_to(ds, &r.fit).map_err(|e| {
                 anyhow::anyhow!(
                     "{}: {e}: the fit is of another data set, or of these data loaded otherwise\n  fix: plot the fit with the data it was fitted to (and the same --negative and --channel), or fit these data: brdfit fit DATA --json OUT",
                     path.display()
                 )
             })?;
+            if let Some(n) = note {
+                // Warnings even with --quiet, like the loaders'.
+                eprintln!(
+                    "warning: {}: {n}: the fit is of other values at these angles, or its parameters were edited",
+                    path.display()
+                );
+            }
         }
         Ok(())
     };

@@ -145,14 +145,16 @@ pub fn residual_definition(loss: Loss) -> &'static str {
     }
 }
 
-/// Whether `fit` can have been made from `ds`: refused (with what differs) where the fit used
-/// more samples of its channel than `ds` has usable, or as many but its cost on them (each
-/// sample's residual by [`residuals`], without `--max-theta`) is not the cost it reports.
-/// Fewer samples than usable (a fit with `--max-theta`) and a fit of channels `ds` lacks are
-/// not judged here (`Ok`).
-pub fn check_fitted_to(ds: &Dataset, fit: &FitResult) -> Result<(), String> {
+/// Whether `fit` can have been made from `ds`: refused (`Err`, with what differs) where the
+/// fit used more samples of its channel than `ds` has usable; a note (`Ok(Some)`) where it
+/// used as many but its cost on them (each sample's residual by [`residuals`], without
+/// `--max-theta`) is not the cost it reports — a fit of other values at the same angles, or
+/// a fit file whose parameters were edited, which is still a model to draw. Fewer samples
+/// than usable (a fit with `--max-theta`) and a fit of channels `ds` lacks are not judged
+/// here (`Ok(None)`).
+pub fn check_fitted_to(ds: &Dataset, fit: &FitResult) -> Result<Option<String>, String> {
     let Ok(rows) = residuals(ds, fit, None) else {
-        return Ok(());
+        return Ok(None);
     };
     let (m, used) = (rows.len(), fit.samples_used);
     if used > m {
@@ -169,14 +171,14 @@ pub fn check_fitted_to(ds: &Dataset, fit: &FitResult) -> Result<(), String> {
             .sum::<f64>();
     // The fit's own kernels and Model::brdf part in the 9th digit at worst (tests/it).
     if used == m && (cost - fit.cost).abs() > 1e-6 * fit.cost.abs().max(1e-300) {
-        return Err(format!(
+        return Ok(Some(format!(
             "the {} fit reports cost {} on {used} samples of channel {}, and its cost on these \
              data's {m} is {}",
             fit.label(),
             crate::model::significant(fit.cost, 6),
             fit.channel,
             crate::model::significant(cost, 6)
-        ));
+        )));
     }
-    Ok(())
+    Ok(None)
 }
