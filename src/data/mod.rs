@@ -166,6 +166,12 @@ pub struct Metadata {
     pub warnings: Vec<String>,
 }
 
+/// The angles of a sample to 1e-9 rad: samples with the same key are at the same
+/// configuration ([`Dataset::duplicates`], [`Dataset::merge`]).
+fn angle_key(a: [f64; 4]) -> [i64; 4] {
+    a.map(|x| (x * 1e9).round() as i64)
+}
+
 /// Reflectance samples, struct-of-arrays, angles in radians.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Dataset {
@@ -278,12 +284,8 @@ impl Dataset {
     /// Number of samples whose four angles repeat an earlier sample's (to 1e-9 rad).
     pub fn duplicates(&self) -> usize {
         let mut seen = std::collections::HashSet::with_capacity(self.len());
-        let key = |x: f64| (x * 1e9).round() as i64;
         (0..self.len())
-            .filter(|&k| {
-                let a = self.angles(k);
-                !seen.insert([key(a[0]), key(a[1]), key(a[2]), key(a[3])])
-            })
+            .filter(|&k| !seen.insert(angle_key(self.angles(k))))
             .count()
     }
 
@@ -310,7 +312,6 @@ impl Dataset {
                 ));
             }
         }
-        let key = |a: [f64; 4]| a.map(|x| (x * 1e9).round() as i64);
         let nch = first.channels.len();
         // Per distinct configuration: angles, Σ w·value and Σ w per channel, Σ w.
         let mut index = std::collections::HashMap::new();
@@ -323,7 +324,7 @@ impl Dataset {
             for k in 0..d.len() {
                 let a = d.angles(k);
                 let w = d.weights.as_ref().map_or(1.0, |w| w[k]);
-                let i = *index.entry(key(a)).or_insert_with(|| {
+                let i = *index.entry(angle_key(a)).or_insert_with(|| {
                     rows.push((a, vec![(0.0, 0.0); nch], 0.0));
                     rows.len() - 1
                 });

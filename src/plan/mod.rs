@@ -108,16 +108,26 @@ impl Plan {
     }
 }
 
-/// The prior's components at a configuration (interpolated as the reconstruction reads its
-/// table).
+/// The prior's components at a configuration.
 fn components_at(prior: &Prior, g: &Geometry, out: &mut [f64]) {
-    let n = prior.cells();
-    let corners = prior.corners(g);
-    for (k, o) in out.iter_mut().enumerate() {
-        *o = corners
-            .iter()
-            .map(|&(c, w)| w * prior.basis[k * n + c] as f64)
-            .sum();
+    prior.components_at(&prior.corners(g), out);
+}
+
+/// `m += s a aᵀ` on the lower triangle.
+fn add_outer(m: &mut DMatrix<f64>, a: &[f64], s: f64) {
+    for r in 0..a.len() {
+        for c in 0..=r {
+            m[(r, c)] += s * a[r] * a[c];
+        }
+    }
+}
+
+/// Copy the lower triangle of `m` onto the upper.
+fn symmetrise(m: &mut DMatrix<f64>) {
+    for r in 0..m.nrows() {
+        for c in 0..r {
+            m[(c, r)] = m[(r, c)];
+        }
     }
 }
 
@@ -137,17 +147,11 @@ pub fn posterior_covariance(prior: &Prior, data: Option<&Dataset>, noise: f64) -
                 continue;
             }
             components_at(prior, &g, &mut a);
-            for r in 0..k {
-                for c in 0..=r {
-                    info[(r, c)] += a[r] * a[c] / noise;
-                }
-            }
+            add_outer(&mut info, &a, 1.0 / noise);
         }
     }
+    symmetrise(&mut info);
     for r in 0..k {
-        for c in 0..r {
-            info[(c, r)] = info[(r, c)];
-        }
         info[(r, r)] += 1.0 / prior.variance[r].max(1e-300);
     }
     info.clone()
@@ -172,18 +176,9 @@ fn target_matrix(prior: &Prior, target: &Target) -> DMatrix<f64> {
                     continue;
                 }
                 components_at(prior, &g, &mut a);
-                let s = weight / total;
-                for r in 0..k {
-                    for c in 0..=r {
-                        w[(r, c)] += s * a[r] * a[c];
-                    }
-                }
+                add_outer(&mut w, &a, weight / total);
             }
-            for r in 0..k {
-                for c in 0..r {
-                    w[(c, r)] = w[(r, c)];
-                }
-            }
+            symmetrise(&mut w);
             w
         }
     }

@@ -97,6 +97,18 @@ impl Prior {
         (ih * nd + id) * np + ip
     }
 
+    /// The first `out.len()` components interpolated over `corners` (from [`Prior::corners`]),
+    /// as the reconstruction reads its table.
+    pub fn components_at(&self, corners: &[(usize, f64); 8], out: &mut [f64]) {
+        let n = self.cells();
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = corners
+                .iter()
+                .map(|&(c, w)| w * self.basis[k * n + c] as f64)
+                .sum();
+        }
+    }
+
     /// The eight cells around a configuration and their trilinear weights.
     pub fn corners(&self, g: &Geometry) -> [(usize, f64); 8] {
         let c = coordinates(g);

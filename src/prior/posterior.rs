@@ -89,18 +89,6 @@ fn rows(prior: &Prior, ds: &Dataset, folds: usize) -> Vec<Row> {
     out
 }
 
-/// The first `k` components at a row.
-fn design(prior: &Prior, row: &Row, k: usize, out: &mut [f64]) {
-    let n = prior.cells();
-    for (j, o) in out.iter_mut().enumerate().take(k) {
-        *o = row
-            .corners
-            .iter()
-            .map(|&(c, w)| w * prior.basis[j * n + c] as f64)
-            .sum();
-    }
-}
-
 /// AᵀA and Aᵀr over the rows `take` selects.
 fn normal(
     a: &[Vec<f64>],
@@ -166,7 +154,7 @@ impl Posterior {
             .iter()
             .map(|r| {
                 let mut x = vec![0.0; kmax];
-                design(&prior, r, kmax, &mut x);
+                prior.components_at(&r.corners, &mut x);
                 x
             })
             .collect();
